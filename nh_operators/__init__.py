@@ -1,0 +1,39 @@
+"""nh-operators: neural operators for Hamilton's equations, with honest classical baselines.
+
+Importing the package selects DeepXDE's PyTorch backend when none is chosen (quietly,
+without writing a config file in the home folder).
+"""
+
+from ._backend import ensure_pytorch_backend as _ensure_pytorch_backend
+
+_ensure_pytorch_backend()
+
+from ._constants import SENSORS, TIMES, V0  # noqa: E402
+from ._version import __version__  # noqa: E402
+from .physical import PHYSICAL_POTENTIALS, AnalyticPotential  # noqa: E402
+from .potentials import BoundedPotential, check_bounded  # noqa: E402
+from .solvers import (  # noqa: E402
+    METHODS,
+    integrate,
+    integrate_sensors,
+    paper_rk4,
+    reference_solve,
+)
+from .space import BoundedPotentialSpace  # noqa: E402
+
+__all__ = [
+    "__version__",
+    "V0",
+    "SENSORS",
+    "TIMES",
+    "AnalyticPotential",
+    "BoundedPotential",
+    "BoundedPotentialSpace",
+    "METHODS",
+    "PHYSICAL_POTENTIALS",
+    "check_bounded",
+    "integrate",
+    "integrate_sensors",
+    "paper_rk4",
+    "reference_solve",
+]

@@ -1,0 +1,301 @@
+"""Compiled (numba) kernels: piecewise-cubic potentials, fixed-step and adaptive solvers.
+
+Every force function has the signature ``force(params, x) -> -V'(x)`` with ``params``
+a 1-D float64 row. The trajectory kernels take the force function as an argument; numba
+compiles one specialisation per force. The same Python source also runs uncompiled
+(``_trajectory_fixed.py_func``) with a plain Python force, which is how arbitrary
+user callables are integrated without a second copy of the steppers.
+"""
+
+import math
+
+import numba
+import numpy as np
+
+from .bspline import Q_OFFSET, V_OFFSET
+
+_JIT = dict(nogil=True, cache=True)
+
+
+@numba.njit(**_JIT)
+def _cubic(c, o, s):
+    return c[o] + s * (c[o + 1] + s * (c[o + 2] + s * c[o + 3]))
+
+
+@numba.njit(**_JIT)
+def _dcubic(c, o, s):
+    return c[o + 1] + s * (2.0 * c[o + 2] + s * 3.0 * c[o + 3])
+
+
+@numba.njit(**_JIT)
+def _d2cubic(c, o, s):
+    return 2.0 * c[o + 2] + 6.0 * s * c[o + 3]
+
+
+# ---------------------------------------------------------------- B-spline potentials
+
+
+@numba.njit(**_JIT)
+def bspline_locate(par, x):
+    """Return (piece offset, s) with q(s) = x on that piece, by safeguarded Newton."""
+    pieces = int(par[0])
+    j = 0
+    for jj in range(1, pieces):
+        if par[Q_OFFSET + 4 * jj] <= x:
+            j = jj
+        else:
+            break
+    oq = Q_OFFSET + 4 * j
+    q_lo = par[oq]
+    q_hi = _cubic(par, oq, 1.0)
+    if x < q_lo:  # left of the curve: extrapolate the first piece
+        lo, hi = -1.0, 0.0
+    elif x > q_hi:  # right of the curve: extrapolate the last piece
+        lo, hi = 1.0, 2.0
+    else:
+        lo, hi = 0.0, 1.0
+    s = (x - q_lo) / (q_hi - q_lo)
+    s = min(max(s, lo), hi)
+    for _ in range(100):
+        g = _cubic(par, oq, s) - x
+        if g == 0.0:
+            break
+        if g > 0.0:
+            hi = s
+        else:
+            lo = s
+        d = _dcubic(par, oq, s)
+        step = g / d if d > 0.0 else 2.0 * (hi - lo)
+        s_new = s - step
+        if not (lo <= s_new <= hi):
+            s_new = 0.5 * (lo + hi)
+        if abs(s_new - s) <= 1e-16 * (1.0 + abs(s)):
+            s = s_new
+            break
+        s = s_new
+    return j, s
+
+
+@numba.njit(**_JIT)
+def bspline_value(par, x):
+    j, s = bspline_locate(par, x)
+    return _cubic(par, V_OFFSET + 4 * j, s)
+
+
+@numba.njit(**_JIT)
+def bspline_force(par, x):
+    j, s = bspline_locate(par, x)
+    return -_dcubic(par, V_OFFSET + 4 * j, s) / _dcubic(par, Q_OFFSET + 4 * j, s)
+
+
+@numba.njit(**_JIT)
+def bspline_curvature(par, x):
+    """d²V/dq² from the curve: (V'' q' - V' q'') / q'³ in the curve parameter."""
+    j, s = bspline_locate(par, x)
+    oq = Q_OFFSET + 4 * j
+    ov = V_OFFSET + 4 * j
+    dq = _dcubic(par, oq, s)
+    return (_d2cubic(par, ov, s) * dq - _dcubic(par, ov, s) * _d2cubic(par, oq, s)) / dq**3
+
+
+# ------------------------------------------------- piecewise cubics on a uniform q-grid
+
+
+@numba.njit(**_JIT)
+def _grid_piece(par, x):
+    n = par.shape[0] // 4
+    u = x * n
+    j = min(max(int(math.floor(u)), 0), n - 1)
+    return 4 * j, u - j, n
+
+
+@numba.njit(**_JIT)
+def grid_value(par, x):
+    o, s, _ = _grid_piece(par, x)
+    return _cubic(par, o, s)
+
+
+@numba.njit(**_JIT)
+def grid_force(par, x):
+    o, s, n = _grid_piece(par, x)
+    return -n * _dcubic(par, o, s)
+
+
+# ------------------------------------------------------------- vectorised evaluation
+
+
+@numba.njit(parallel=True, **_JIT)
+def evaluate(fn, pars, xs, out):
+    """out[i, k] = fn(pars[i], xs[k]) for every potential i and point k."""
+    for i in numba.prange(pars.shape[0]):
+        for k in range(xs.shape[0]):
+            out[i, k] = fn(pars[i], xs[k])
+
+
+# -------------------------------------------------------------- fixed-step solvers
+
+
+@numba.njit(**_JIT)
+def _hermite(theta, h, y0, d0, y1, d1):
+    t2 = theta * theta
+    t3 = t2 * theta
+    return ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + theta) * h * d0
+            + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * d1)
+
+
+@numba.njit(**_JIT)
+def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
+    """One trajectory from rest at q = 0 with ``nsteps`` steps of size ``h``.
+
+    ``tq`` holds sorted query times in [0, nsteps h]; results are cubic Hermite
+    interpolants with the exact derivatives (dq/dt = p, dp/dt = force) at the ends of
+    the step that brackets each query. ``rk4`` selects classical RK4; otherwise the
+    step is the composition of Störmer–Verlet (kick-drift-kick) steps of size
+    ``h * weights[i]``.
+    """
+    m = tq.shape[0]
+    q = 0.0
+    p = 0.0
+    f = force(par, q)
+    k = 0
+    while k < m and tq[k] <= 0.0:
+        oq[k] = 0.0
+        op[k] = 0.0
+        k += 1
+    for n in range(nsteps):
+        q0 = q
+        p0 = p
+        f0 = f
+        if rk4:
+            h2 = 0.5 * h
+            f2 = force(par, q + h2 * p)
+            p2 = p + h2 * f
+            f3 = force(par, q + h2 * p2)
+            p3 = p + h2 * f2
+            f4 = force(par, q + h * p3)
+            p4 = p + h * f3
+            q = q + h / 6.0 * (p + 2.0 * p2 + 2.0 * p3 + p4)
+            p = p + h / 6.0 * (f + 2.0 * f2 + 2.0 * f3 + f4)
+            f = force(par, q)
+        else:
+            for w in weights:
+                p += 0.5 * h * w * f
+                q += h * w * p
+                f = force(par, q)
+                p += 0.5 * h * w * f
+        t0 = n * h
+        t1 = (n + 1) * h
+        last = n == nsteps - 1
+        while k < m and (last or tq[k] <= t1):
+            theta = (tq[k] - t0) / h
+            oq[k] = _hermite(theta, h, q0, p0, q, p)
+            op[k] = _hermite(theta, h, p0, f0, p, f)
+            k += 1
+
+
+@numba.njit(parallel=True, **_JIT)
+def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op):
+    for i in numba.prange(pars.shape[0]):
+        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[i], op[i])
+
+
+# ----------------------------------------- adaptive Dormand–Prince 5(4) in λ (truth)
+
+_C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)
+_A = (
+    (),
+    (1 / 5,),
+    (3 / 40, 9 / 40),
+    (44 / 45, -56 / 15, 32 / 9),
+    (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
+    (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656),
+    (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84),
+)
+_B5 = np.array(_A[6] + (0.0,))
+_B4 = np.array((5179 / 57600, 0.0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40))
+_E = _B5 - _B4
+_AM = np.zeros((7, 7))
+for _i, _row in enumerate(_A):
+    _AM[_i, : len(_row)] = _row
+
+
+@numba.njit(**_JIT)
+def _curve_rhs(par, lam, p):
+    """Hamilton's equations in the curve parameter: λ' = p / q_λ, p' = -V_λ / q_λ."""
+    pieces = int(par[0])
+    u = lam * pieces
+    j = min(max(int(math.floor(u)), 0), pieces - 1)
+    s = u - j
+    dq = _dcubic(par, Q_OFFSET + 4 * j, s)
+    return p / (pieces * dq), -_dcubic(par, V_OFFSET + 4 * j, s) / dq
+
+
+@numba.njit(**_JIT)
+def _curve_point(par, lam):
+    pieces = int(par[0])
+    u = lam * pieces
+    j = min(max(int(math.floor(u)), 0), pieces - 1)
+    s = u - j
+    return _cubic(par, Q_OFFSET + 4 * j, s), _cubic(par, V_OFFSET + 4 * j, s)
+
+
+@numba.njit(**_JIT)
+def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov):
+    """Adaptive DP5(4) solve of one B-spline potential, landing exactly on each tq.
+
+    Returns the number of accepted steps, or -1 if ``max_steps`` was exhausted.
+    """
+    kl = np.empty(7)
+    kp = np.empty(7)
+    lam = 0.0
+    p = 0.0
+    t = 0.0
+    h = 1e-3
+    steps = 0
+    kl[0], kp[0] = _curve_rhs(par, lam, p)
+    for k in range(tq.shape[0]):
+        while t < tq[k]:
+            if steps >= max_steps:
+                return -1
+            remaining = tq[k] - t
+            hit = h >= remaining
+            hs = remaining if hit else h
+            for i in range(1, 7):
+                sl = lam
+                sp = p
+                for j in range(i):
+                    sl += hs * _AM[i, j] * kl[j]
+                    sp += hs * _AM[i, j] * kp[j]
+                kl[i], kp[i] = _curve_rhs(par, sl, sp)
+            el = 0.0
+            ep = 0.0
+            for i in range(7):
+                el += hs * _E[i] * kl[i]
+                ep += hs * _E[i] * kp[i]
+            # stage 7 evaluated at the 5th-order solution (FSAL)
+            sc_l = atol + rtol * max(abs(lam), abs(sl))
+            sc_p = atol + rtol * max(abs(p), abs(sp))
+            err = math.sqrt(0.5 * ((el / sc_l) ** 2 + (ep / sc_p) ** 2))
+            if err <= 1.0:
+                lam = sl
+                p = sp
+                t = tq[k] if hit else t + hs
+                kl[0] = kl[6]
+                kp[0] = kp[6]
+                steps += 1
+                factor = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err**-0.2))
+                if not hit:
+                    h = hs * factor
+            else:
+                h = hs * max(0.2, 0.9 * err**-0.2)
+        qk, vk = _curve_point(par, lam)
+        oq[k] = qk
+        op[k] = p
+        ov[k] = 0.5 * p * p + vk
+    return steps
+
+
+@numba.njit(parallel=True, **_JIT)
+def batch_dp5(pars, tq, rtol, atol, max_steps, oq, op, ov, steps):
+    for i in numba.prange(pars.shape[0]):
+        steps[i] = _trajectory_dp5(pars[i], tq, rtol, atol, max_steps, oq[i], op[i], ov[i])

@@ -1,0 +1,125 @@
+"""The paper's physically relevant test potentials (its Table of test potentials).
+
+All are bounded potentials on [0, 1] with V(0) = V(1) = 2. SHO and mirrored free fall
+(MFF) have exact trajectories; the others are compared with the reference solver.
+"""
+
+import math
+
+import numpy as np
+
+__all__ = ["AnalyticPotential", "PHYSICAL_POTENTIALS"]
+
+
+class AnalyticPotential:
+    """A potential given by formulas.
+
+    Args:
+        name: short key, e.g. ``"sho"``.
+        formula: the formula as text, for tables and figures.
+        V: vectorised callable q -> V(q).
+        dV: vectorised callable q -> dV/dq.
+        exact: optional callable t -> (q, p), the exact trajectory from rest at q = 0.
+
+    Example:
+        >>> sho = PHYSICAL_POTENTIALS["sho"]
+        >>> q, p = sho.exact(np.array([0.0]))
+        >>> float(q[0]), float(p[0])
+        (0.0, 0.0)
+    """
+
+    def __init__(self, name, formula, V, dV, exact=None):
+        self.name = name
+        self.formula = formula
+        self._V = V
+        self._dV = dV
+        self._exact = exact
+
+    def V(self, q):
+        return self._V(np.asarray(q, dtype=np.float64))
+
+    def dV(self, q):
+        return self._dV(np.asarray(q, dtype=np.float64))
+
+    def exact(self, t):
+        """Exact (q(t), p(t)) as float64 arrays of the shape of t, or None if unknown."""
+        if self._exact is None:
+            return None
+        return self._exact(np.asarray(t, dtype=np.float64))
+
+    def __repr__(self):
+        return f"AnalyticPotential({self.name!r}, V = {self.formula})"
+
+
+def _sho_exact(t):
+    return 0.5 * (1.0 - np.cos(4.0 * t)), 2.0 * np.sin(4.0 * t)
+
+
+def _mff_exact(t):
+    # Period 2: fall from q = 0 to 1/2 (t < 1/2), rise to 1 and back to 1/2 (t < 3/2),
+    # and return to 0; the formulas of the paper, extended periodically.
+    s = np.mod(t, 2.0)
+    q = np.where(s < 0.5, 2 * s**2, np.where(s < 1.5, -2 * s**2 + 4 * s - 1, 2 * (2 - s) ** 2))
+    p = np.where(s < 0.5, 4 * s, np.where(s < 1.5, 4 - 4 * s, -4 * (2 - s)))
+    return q, p
+
+
+_DE = 8.0 / (math.sqrt(5.0) - 1.0) ** 2
+_A = 3.0 * math.log((1.0 + math.sqrt(5.0)) / 2.0)
+
+
+def _morse_V(q):
+    return _DE * (1.0 - np.exp(-_A * (q - 1.0 / 3.0))) ** 2
+
+
+def _morse_dV(q):
+    e = np.exp(-_A * (q - 1.0 / 3.0))
+    return 2.0 * _DE * _A * e * (1.0 - e)
+
+
+def smff(alpha):
+    """Softened mirrored free fall, V = 4 tanh(α/2) (q - 1/2) coth(α (q - 1/2)).
+
+    The removable singularity at q = 1/2 is evaluated from the Taylor series of
+    u coth u, so V and dV are accurate to rounding everywhere.
+    """
+    scale = 4.0 * math.tanh(alpha / 2.0) / alpha
+
+    def ucothu(u):
+        small = np.abs(u) < 0.1
+        us = np.where(small, 1.0, u)
+        u2 = u * u
+        series = 1 + u2 / 3 - u2**2 / 45 + 2 * u2**3 / 945 - u2**4 / 4725
+        return np.where(small, series, us / np.tanh(us))
+
+    def ducothu(u):
+        small = np.abs(u) < 0.1
+        us = np.where(small, 1.0, u)
+        u2 = u * u
+        series = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725)
+        return np.where(small, series, 1 / np.tanh(us) - us / np.sinh(us) ** 2)
+
+    return AnalyticPotential(
+        "smff",
+        f"4/coth({alpha:g}/2) (q - 1/2) coth({alpha:g} (q - 1/2))",
+        lambda q: scale * ucothu(alpha * (q - 0.5)),
+        lambda q: scale * alpha * ducothu(alpha * (q - 0.5)),
+    )
+
+
+PHYSICAL_POTENTIALS = {
+    "sho": AnalyticPotential(
+        "sho", "8 (q - 1/2)^2", lambda q: 8 * (q - 0.5) ** 2, lambda q: 16 * (q - 0.5), _sho_exact
+    ),
+    "double_well": AnalyticPotential(
+        "double_well",
+        "625/8 (q - 0.2)^2 (q - 0.8)^2",
+        lambda q: 625 / 8 * (q - 0.2) ** 2 * (q - 0.8) ** 2,
+        lambda q: 625 / 4 * (q - 0.2) * (q - 0.8) * (2 * q - 1.0),
+    ),
+    "morse": AnalyticPotential("morse", "D_e (1 - exp(-a (q - 1/3)))^2", _morse_V, _morse_dV),
+    "mff": AnalyticPotential(
+        "mff", "4 |q - 1/2|", lambda q: 4 * np.abs(q - 0.5), lambda q: 4 * np.sign(q - 0.5), _mff_exact
+    ),
+    "smff": smff(20.0),
+}

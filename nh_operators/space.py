@@ -1,0 +1,146 @@
+"""The paper's random bounded potentials (its Algorithm 1) as a DeepXDE function space."""
+
+import numpy as np
+
+from ._backend import ensure_pytorch_backend
+from ._constants import V0
+from .bspline import MAX_CONTROL
+from .potentials import BoundedPotential
+
+FunctionSpace = ensure_pytorch_backend().data.function_spaces.FunctionSpace
+
+__all__ = ["BoundedPotentialSpace"]
+
+MAX_GRF = MAX_CONTROL - 2
+
+
+def _as_generator(seed):
+    if isinstance(seed, np.random.Generator):
+        return seed
+    if seed is None or isinstance(seed, (int, np.integer)):
+        return np.random.default_rng(seed)
+    raise TypeError(f"seed must be an int, None or a numpy.random.Generator, got {type(seed)!r}")
+
+
+class BoundedPotentialSpace(FunctionSpace):
+    """Random bounded potentials: a GRF drawn at a few nodes, placed on a B-spline.
+
+    For each potential (the paper's Algorithm 1 with L = 1, V0 = 2):
+
+    1. n_GRF ~ uniform on {n_min, ..., n_max} and a length scale l ~ U(l_min, l_max);
+    2. X ~ N(0, K) with the squared-exponential kernel
+       K_ij = exp(-(y_i - y_j)² / (2 l²)) at y_i = i / (n_GRF + 1);
+    3. X is normalised to control values V_i; the paper maps min X to V0 and max X to
+       -V0, which puts one interior control value exactly at V0. Then V'(0) = 0 when
+       that value is V_1, and with n_GRF = 2 the particle never moves. Here the
+       normalisation is V_i = V0 - 2 V0 (margin + (1 - margin) u_i) with
+       u_i = (X_i - min X) / (max X - min X), so interior values lie in
+       [-V0, V0 (1 - 2 margin)] and stay strictly below V0 (default margin 0.05:
+       at most 1.8). Since the B-spline is a convex combination of its control points
+       with the end weights below 1 inside, V < V0 on (0, 1) and V'(0) < 0, V'(1) > 0;
+    4. abscissae q_0 = 0, q_i drawn uniformly from the i-th of n_GRF equal cells shrunk
+       by ω (ω from the ends), q_{n_GRF+1} = 1; ω = 0.05 keeps the walls from
+       becoming too steep;
+    5. V is the clamped cubic B-spline curve through (q_i, V_i) with uniform knots.
+
+    Each potential is drawn from the generator in turn (n_GRF, l, the GRF normals, the
+    abscissae), so the k-th potential does not depend on how many are drawn at once.
+
+    Features (DeepXDE's ``random`` format) have shape (n, 1 + 2 MAX_GRF) = (n, 15):
+    ``[n_GRF, q_1..q_7, V_1..V_7]``, NaN beyond n_GRF. They rebuild the potential
+    exactly.
+
+    Args:
+        seed: int, None or ``numpy.random.Generator``; the space owns its generator.
+        n_grf: (min, max) number of interior control points, both in [2, 7].
+        length_scale: (min, max) of the GRF length scale.
+        omega: the stability parameter ω, in (0, 1 / (2 max n_GRF)).
+        margin: fraction of the 2 V0 range kept free below V0, in (0, 1).
+
+    Example:
+        >>> space = BoundedPotentialSpace(seed=1)
+        >>> feats = space.random(3)
+        >>> space.eval_batch(feats, np.array([[0.0], [1.0]])).tolist()
+        [[2.0, 2.0], [2.0, 2.0], [2.0, 2.0]]
+    """
+
+    def __init__(self, seed=None, *, n_grf=(2, 7), length_scale=(0.01, 0.2), omega=0.05,
+                 margin=0.05):
+        lo, hi = n_grf
+        if not 2 <= lo <= hi <= MAX_GRF:
+            raise ValueError(f"n_grf must satisfy 2 <= min <= max <= {MAX_GRF}, got {n_grf}")
+        if not 0 < length_scale[0] <= length_scale[1]:
+            raise ValueError(f"length_scale must be 0 < min <= max, got {length_scale}")
+        if not 0 < omega < 1 / (2 * hi):
+            raise ValueError(f"omega must lie in (0, 1/(2 n_grf_max)) = (0, {1 / (2 * hi):.4g})")
+        if not 0 < margin < 1:
+            raise ValueError(f"margin must lie in (0, 1), got {margin}")
+        self.rng = _as_generator(seed)
+        self.n_grf = (int(lo), int(hi))
+        self.length_scale = (float(length_scale[0]), float(length_scale[1]))
+        self.omega = float(omega)
+        self.margin = float(margin)
+
+    def params(self):
+        """The generator parameters, as stored with a dataset."""
+        return {"n_grf": list(self.n_grf), "length_scale": list(self.length_scale),
+                "omega": self.omega, "margin": self.margin, "V0": V0, "L": 1.0}
+
+    def _draw_one(self):
+        rng = self.rng
+        n = int(rng.integers(self.n_grf[0], self.n_grf[1] + 1))
+        ell = rng.uniform(*self.length_scale)
+        y = np.arange(1, n + 1) / (n + 1)
+        cov = np.exp(-((y[:, None] - y[None, :]) ** 2) / (2 * ell**2)) + 1e-12 * np.eye(n)
+        x = np.linalg.cholesky(cov) @ rng.standard_normal(n)
+        u = (x - x.min()) / (x.max() - x.min())
+        values = V0 - 2 * V0 * (self.margin + (1 - self.margin) * u)
+        i = np.arange(1, n + 1)
+        low = (i - 1) / n + self.omega / 2
+        high = i / n - self.omega / 2
+        low[0] = self.omega
+        high[-1] = 1 - self.omega
+        qs = rng.uniform(low, high)
+        return n, ell, qs, values
+
+    def random_with_scales(self, size):
+        """Like :meth:`random`, also returning the drawn length scales, shape (size,)."""
+        feats = np.full((size, 1 + 2 * MAX_GRF), np.nan)
+        scales = np.empty(size)
+        for k in range(size):
+            n, scales[k], qs, values = self._draw_one()
+            feats[k, 0] = n
+            feats[k, 1 : 1 + n] = qs
+            feats[k, 1 + MAX_GRF : 1 + MAX_GRF + n] = values
+        return feats, scales
+
+    def random(self, size):
+        """Draw ``size`` potentials; returns their features, shape (size, 15)."""
+        return self.random_with_scales(size)[0]
+
+    @staticmethod
+    def controls(features):
+        """Full control points (with the ends) from features: two (n, 9) arrays, NaN-padded."""
+        feats = np.atleast_2d(np.asarray(features, dtype=np.float64))
+        n = feats.shape[0]
+        counts = feats[:, 0].astype(int)
+        cq = np.full((n, MAX_CONTROL), np.nan)
+        cv = np.full((n, MAX_CONTROL), np.nan)
+        for k, m in enumerate(counts):
+            cq[k, : m + 2] = np.concatenate([[0.0], feats[k, 1 : 1 + m], [1.0]])
+            cv[k, : m + 2] = np.concatenate([[V0], feats[k, 1 + MAX_GRF : 1 + MAX_GRF + m], [V0]])
+        return cq, cv
+
+    @classmethod
+    def potentials(cls, features):
+        """The exact potentials of features, as one batched :class:`BoundedPotential`."""
+        return BoundedPotential(*cls.controls(features))
+
+    def eval_one(self, feature, x):
+        """V of one potential at x (a float or an array of points)."""
+        return self.potentials(np.asarray(feature)[None, :])[0].V(np.asarray(x).reshape(-1))
+
+    def eval_batch(self, features, xs):
+        """V of every potential at points xs of shape (n_points, 1): (n_functions, n_points)."""
+        xs = np.asarray(xs, dtype=np.float64).reshape(-1)
+        return self.potentials(features).V(xs)
