@@ -1,0 +1,28 @@
+# Set-up and the main jobs. Each target creates the virtual environment on first use.
+PYTHON ?= python3
+VENV ?= .venv
+BIN = $(VENV)/bin
+
+.PHONY: demo test test-all bench clean
+
+$(BIN)/.installed: pyproject.toml constraints.txt
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test]"
+	touch $@
+
+demo: $(BIN)/.installed  ## classical solvers on the five physical potentials: table + figure
+	$(BIN)/nh-operators demo --out demo
+
+test: $(BIN)/.installed  ## the test suite CI runs (slow checks skipped)
+	$(BIN)/python -m pytest -q
+
+test-all: $(BIN)/.installed  ## also the slow checks
+	$(BIN)/python -m pytest -q --runslow
+
+bench: $(BIN)/.installed  ## benchmark tables (minutes)
+	$(BIN)/python benchmarks/label_generation.py
+	$(BIN)/python benchmarks/classical_speed_accuracy.py
+
+clean:
+	rm -rf $(VENV) demo build *.egg-info
