@@ -84,7 +84,9 @@ def bspline_value(par, x):
 
 @numba.njit(**_JIT)
 def bspline_force(par, x):
-    j, s = bspline_locate(par, x)
+    # Outside [0, 1] the force is held at its end value (V extended linearly, C¹), so
+    # an overshoot of a coarse step is pushed back instead of following a cubic away.
+    j, s = bspline_locate(par, min(max(x, 0.0), 1.0))
     return -_dcubic(par, V_OFFSET + 4 * j, s) / _dcubic(par, Q_OFFSET + 4 * j, s)
 
 
@@ -117,7 +119,7 @@ def grid_value(par, x):
 
 @numba.njit(**_JIT)
 def grid_force(par, x):
-    o, s, n = _grid_piece(par, x)
+    o, s, n = _grid_piece(par, min(max(x, 0.0), 1.0))  # linear extension, as above
     return -n * _dcubic(par, o, s)
 
 

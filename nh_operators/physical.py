@@ -89,14 +89,14 @@ def smff(alpha):
         small = np.abs(u) < 0.1
         us = np.where(small, 1.0, u)
         u2 = u * u
-        series = 1 + u2 / 3 - u2**2 / 45 + 2 * u2**3 / 945 - u2**4 / 4725
+        series = 1 + u2 / 3 - u2**2 / 45 + 2 * u2**3 / 945 - u2**4 / 4725 + 2 * u2**5 / 93555
         return np.where(small, series, us / np.tanh(us))
 
     def ducothu(u):
         small = np.abs(u) < 0.1
         us = np.where(small, 1.0, u)
         u2 = u * u
-        series = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725)
+        series = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725 + 20 * u2**4 / 93555)
         return np.where(small, series, 1 / np.tanh(us) - us / np.sinh(us) ** 2)
 
     return AnalyticPotential(
