@@ -135,22 +135,30 @@ def format_table(rows):
 
 
 def goal_checks(rows, rk4_subset_mean):
-    """Lines checking (a) the RK4 accuracy goal and (b) its speed against DOP853."""
+    """Lines checking (a) the RK4 accuracy goal and (b) its speed against DOP853.
+
+    (b) compares on the same potentials: a DOP853 row qualifies when its mean L_tot is at
+    most RK4's mean on the DOP853 subset (``rk4_subset_mean``).
+    """
     rk4 = next(r for r in rows if r.information == SENSORS_INFO
                and r.name == f"rk4 ({GOAL_RK4_SUBSTEPS} substeps)")
     ok = rk4.mean_loss <= GOAL_RK4_LOSS
     lines = [f"(a) rk4 on sensors, {GOAL_RK4_SUBSTEPS} substeps: mean L_tot = "
              f"{rk4.mean_loss:.3e} vs goal ≤ {GOAL_RK4_LOSS:g}: {'MET' if ok else 'NOT MET'}"]
-    dop = [r for r in rows if r.name.startswith("DOP853") and r.mean_loss <= rk4.mean_loss]
-    if dop:
-        best = min(dop, key=lambda r: r.us_per_trajectory)
+    dop = [r for r in rows if r.name.startswith("DOP853")]
+    enough = [r for r in dop if r.mean_loss <= rk4_subset_mean]
+    head = (f"(b) rk4 ({GOAL_RK4_SUBSTEPS} substeps) mean L_tot on the {dop[0].n} DOP853 "
+            f"potentials: {rk4_subset_mean:.3e}; ")
+    if enough:
+        best = min(enough, key=lambda r: r.us_per_trajectory)
+        ratio = best.us_per_trajectory / rk4.us_per_trajectory
         lines.append(
-            f"(b) cheapest DOP853 with mean L_tot ≤ {rk4.mean_loss:.3e}: {best.name} "
-            f"(mean {best.mean_loss:.3e} on its {best.n} potentials, where rk4 has "
-            f"{rk4_subset_mean:.3e}), {best.us_per_trajectory:,.1f} µs per trajectory: "
-            f"rk4 is {best.us_per_trajectory / rk4.us_per_trajectory:,.0f}× faster")
+            head + f"cheapest DOP853 at least as accurate: {best.name} (mean "
+            f"{best.mean_loss:.3e}, {best.us_per_trajectory:,.1f} µs per trajectory): rk4 "
+            f"({rk4.us_per_trajectory:,.1f} µs) is {ratio:,.0f}× faster")
     else:
-        lines.append(f"(b) no DOP853 tolerance reached mean L_tot ≤ {rk4.mean_loss:.3e}")
+        lines.append(head + "no DOP853 tolerance reached it (best mean "
+                     f"{min(r.mean_loss for r in dop):.3e})")
     return lines
 
 

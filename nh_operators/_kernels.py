@@ -82,11 +82,25 @@ def bspline_value(par, x):
     return _cubic(par, V_OFFSET + 4 * j, s)
 
 
+#: Within this distance outside [0, 1] forces follow the end pieces (so a stage that
+#: overshoots a turning point sees the smooth continuation); farther out they are held
+#: at their end values, so a coarse step that overshoots a steep wall is pushed back
+#: instead of following an extrapolated cubic away.
+OUTSIDE_MARGIN = 0.05
+
+
+@numba.njit(**_JIT)
+def _guard(x):
+    if x < -OUTSIDE_MARGIN:
+        return 0.0
+    if x > 1.0 + OUTSIDE_MARGIN:
+        return 1.0
+    return x
+
+
 @numba.njit(**_JIT)
 def bspline_force(par, x):
-    # Outside [0, 1] the force is held at its end value (V extended linearly, C¹), so
-    # an overshoot of a coarse step is pushed back instead of following a cubic away.
-    j, s = bspline_locate(par, min(max(x, 0.0), 1.0))
+    j, s = bspline_locate(par, _guard(x))
     return -_dcubic(par, V_OFFSET + 4 * j, s) / _dcubic(par, Q_OFFSET + 4 * j, s)
 
 
@@ -119,7 +133,7 @@ def grid_value(par, x):
 
 @numba.njit(**_JIT)
 def grid_force(par, x):
-    o, s, n = _grid_piece(par, min(max(x, 0.0), 1.0))  # linear extension, as above
+    o, s, n = _grid_piece(par, _guard(x))
     return -n * _dcubic(par, o, s)
 
 

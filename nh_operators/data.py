@@ -12,6 +12,7 @@ import numpy as np
 from ._backend import ensure_pytorch_backend
 from ._constants import SENSORS, TIMES, V0
 from ._h5 import read_dataset, write_streamed
+from ._version import __version__
 from .potentials import BoundedPotential
 from .solvers import reference_solve
 from .space import BoundedPotentialSpace
@@ -96,7 +97,7 @@ class Dataset:
 
     def potential(self, i):
         """The exact true potential of sample i (an object with ``.V`` and ``.dV``)."""
-        return self.potentials()[int(i)] if np.ndim(i) == 0 else self.potentials()[i]
+        return BoundedPotential(self.control_q[i], self.control_V[i])
 
     def potentials(self):
         """All true potentials as one batched :class:`BoundedPotential`."""
@@ -186,8 +187,6 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
         raise ValueError(f"seed must be an integer, got {seed}")
     n, seed = int(n), int(seed)
     space = BoundedPotentialSpace(np.random.default_rng(seed), **space_kwargs)
-    from ._version import __version__
-
     attrs = {
         "format": "nh-operators-dataset/1",
         "seed": seed,

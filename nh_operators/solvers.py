@@ -239,7 +239,7 @@ def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=F
         rtol, atol: local error tolerances of the adaptive method (B-spline potentials).
         full_output: also return a dict with ``"energy_error"`` (max over t of
             |p²/2 + V(q) - V0|, per potential) and ``"steps"`` (accepted steps, -1 if
-            ``max_steps`` was exhausted).
+            ``max_steps`` was exhausted; for scipy's DOP853, its function evaluations).
         max_steps: step budget per potential.
 
     Returns:
@@ -263,7 +263,7 @@ def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=F
             raise RuntimeError(f"reference solve failed: {sol.message}")
         oq, op = sol.y[0][None, :], sol.y[1][None, :]
         energy = np.max(np.abs(0.5 * op**2 + potential.V(oq) - V0), axis=1)
-        steps = np.array([sol.t.size])
+        steps = np.array([sol.nfev])
     else:
         raise TypeError("potential must be a BoundedPotential or have a dV(q) method")
     q = np.empty_like(oq)

@@ -138,7 +138,8 @@ class BoundedPotentialSpace(FunctionSpace):
 
     def eval_one(self, feature, x):
         """V of one potential at x (a float or an array of points)."""
-        return self.potentials(np.asarray(feature)[None, :])[0].V(np.asarray(x).reshape(-1))
+        values = self.potentials(np.asarray(feature)[None, :])[0].V(np.asarray(x).reshape(-1))
+        return float(values[0]) if values.size == 1 else values
 
     def eval_batch(self, features, xs):
         """V of every potential at points xs of shape (n_points, 1): (n_functions, n_points)."""
