@@ -54,7 +54,7 @@ def _check_times(t):
 
 def _step_grid(t, substeps, interval):
     """Sorted query times, step size and number of steps covering [0, max t]."""
-    if int(substeps) != substeps or substeps < 1:
+    if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
         raise ValueError(f"substeps must be a positive integer, got {substeps}")
     order = np.argsort(t, kind="stable")
     ts = np.ascontiguousarray(t[order])

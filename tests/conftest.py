@@ -1,5 +1,8 @@
 import pytest
 
+from nh_operators import TIMES, BoundedPotentialSpace
+from nh_operators.solvers import reference_solve
+
 
 def pytest_addoption(parser):
     parser.addoption("--runslow", action="store_true", default=False, help="also run slow tests")
@@ -12,3 +15,22 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "slow" in item.keywords:
             item.add_marker(skip)
+
+
+# ------------------------------------------ random B-spline potentials for the solvers
+
+
+@pytest.fixture(scope="session")
+def features():
+    return BoundedPotentialSpace(seed=8407).random(8)
+
+
+@pytest.fixture(scope="session")
+def pots(features):
+    return BoundedPotentialSpace.potentials(features)
+
+
+@pytest.fixture(scope="session")
+def reference(pots):
+    q, p, info = reference_solve(pots, TIMES, full_output=True)
+    return q, p, info
