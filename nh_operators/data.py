@@ -5,8 +5,6 @@ them with :func:`reference_solve` on the exact B-spline curve, drops and counts 
 samples, tops up to exactly n, and streams chunks to an HDF5 file (see :mod:`._h5`).
 """
 
-import time
-
 import numpy as np
 
 from ._backend import ensure_pytorch_backend
@@ -258,10 +256,3 @@ def load_dataset(path, *, verify=True):
     """
     arrays, attrs = read_dataset(path, verify=verify)
     return Dataset(arrays, attrs)
-
-
-def generation_time(n, seed, **kwargs):
-    """Seconds to generate n labelled samples in memory (for benchmarks)."""
-    start = time.perf_counter()
-    generate_dataset(n, seed, progress=False, **kwargs)
-    return time.perf_counter() - start

@@ -37,8 +37,6 @@ _Y8 = _triple_jump(_Y6, 8)
 METHODS = {"rk4": None, "verlet": _VERLET, "yoshida4": _Y4, "yoshida6": _Y6, "yoshida8": _Y8}
 #: Convergence order of each method on smooth potentials.
 ORDERS = {"rk4": 4, "verlet": 2, "yoshida4": 4, "yoshida6": 6, "yoshida8": 8}
-#: Force evaluations per step.
-STAGES = {name: 4 if w is None else len(w) for name, w in METHODS.items()}
 
 
 def _check_times(t):
