@@ -21,13 +21,9 @@ def pytest_collection_modifyitems(config, items):
 
 
 @pytest.fixture(scope="session")
-def features():
-    return BoundedPotentialSpace(seed=8407).random(8)
-
-
-@pytest.fixture(scope="session")
-def pots(features):
-    return BoundedPotentialSpace.potentials(features)
+def pots():
+    """Eight generator potentials (seed 8407), batched."""
+    return BoundedPotentialSpace.potentials(BoundedPotentialSpace(seed=8407).random(8))
 
 
 @pytest.fixture(scope="session")
