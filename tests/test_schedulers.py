@@ -1,0 +1,99 @@
+"""HyperbolicLR / ExpHyperbolicLR against hand-computed values of the paper's formulas."""
+
+import math
+
+import pytest
+import torch
+
+from nh_operators import ExpHyperbolicLR, HyperbolicLR
+
+# lr0 = 1e-2, infimum 1e-4, N = 5, U = 10: h(0) = sqrt(0.75), h(1) = sqrt(0.56),
+# h(2.5) = sqrt(0.3125), h(5) = 0, worked out by hand.
+HAND = {
+    HyperbolicLR: {1: 8.834830128e-3, 2.5: 6.960616747e-3, 5: 1.426348503e-3},
+    ExpHyperbolicLR: {1: 5.815835943e-3, 2.5: 2.432109820e-3, 5: 1.853314794e-4},
+}
+
+
+def _opt(lr=1e-2):
+    return torch.optim.AdamW([torch.nn.Parameter(torch.zeros(2))], lr=lr)
+
+
+def _lr(opt):
+    return opt.param_groups[0]["lr"]
+
+
+@pytest.mark.parametrize("cls", [HyperbolicLR, ExpHyperbolicLR])
+def test_per_epoch_values_match_hand_computation(cls):
+    opt = _opt()
+    sched = cls(opt, upper_bound=10, max_iter=5, infimum_lr=1e-4)
+    seen = {0: _lr(opt)}
+    for epoch in range(1, 6):
+        opt.step()
+        sched.step()
+        seen[epoch] = _lr(opt)
+    assert seen[0] == 1e-2
+    for epoch in (1, 5):
+        assert seen[epoch] == pytest.approx(HAND[cls][epoch], rel=1e-9)
+
+
+@pytest.mark.parametrize("cls", [HyperbolicLR, ExpHyperbolicLR])
+def test_per_iteration_follows_fractional_epochs(cls):
+    opt = _opt()
+    sched = cls(opt, upper_bound=10, max_iter=5, infimum_lr=1e-4, steps_per_epoch=4)
+    for _ in range(10):  # 10 iterations = 2.5 epochs
+        opt.step()
+        sched.step()
+    assert _lr(opt) == pytest.approx(HAND[cls][2.5], rel=1e-9)
+    for _ in range(10):
+        opt.step()
+        sched.step()
+    assert _lr(opt) == pytest.approx(HAND[cls][5], rel=1e-9)
+
+
+@pytest.mark.parametrize("cls", [HyperbolicLR, ExpHyperbolicLR])
+def test_reaches_infimum_when_upper_bound_equals_epochs_and_then_holds(cls):
+    opt = _opt()
+    sched = cls(opt, upper_bound=7, max_iter=7, infimum_lr=1e-5)
+    for _ in range(9):
+        opt.step()
+        sched.step()
+    assert _lr(opt) == pytest.approx(1e-5, rel=1e-12)
+
+
+def test_exp_schedule_with_n_equal_u_is_the_papers_asymptote():
+    # h(x) = (U − x)/U when N = U, so log η = log η0 − (log η0 − log η_inf) x / U
+    opt = _opt(1e-3)
+    sched = ExpHyperbolicLR(opt, upper_bound=400, max_iter=400, infimum_lr=1e-6)
+    for x in range(1, 301):
+        opt.step()
+        sched.step()
+        if x % 50 == 0:
+            expected = math.log(1e-3) - (math.log(1e-3) - math.log(1e-6)) * x / 400
+            assert math.log(_lr(opt)) == pytest.approx(expected, rel=1e-12)
+
+
+def test_state_dict_round_trip():
+    opt = _opt()
+    sched = ExpHyperbolicLR(opt, 10, 5, 1e-4, steps_per_epoch=3)
+    for _ in range(4):
+        opt.step()
+        sched.step()
+    opt2 = _opt()
+    sched2 = ExpHyperbolicLR(opt2, 10, 5, 1e-4, steps_per_epoch=3)
+    sched2.load_state_dict(sched.state_dict())
+    opt2.load_state_dict(opt.state_dict())
+    opt.step(), sched.step(), opt2.step(), sched2.step()
+    assert _lr(opt2) == _lr(opt)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(upper_bound=4, max_iter=5, infimum_lr=1e-4), "upper_bound"),
+    (dict(upper_bound=10, max_iter=5, infimum_lr=1e-2), "infimum_lr"),
+    (dict(upper_bound=10, max_iter=0, infimum_lr=1e-4), "max_iter"),
+    (dict(upper_bound=10, max_iter=5, infimum_lr=1e-4, steps_per_epoch=0),
+     "steps_per_epoch"),
+])
+def test_bad_arguments_are_named(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        HyperbolicLR(_opt(), **kwargs)
