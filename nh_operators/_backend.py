@@ -13,6 +13,9 @@ def ensure_pytorch_backend():
     environment, so deepxde neither searches for a backend nor writes
     ``~/.deepxde/config.json``; its "Using backend" banner is swallowed.
 
+    deepxde's import-time ``torch.set_default_device("cuda")`` (with CUDA present) is
+    undone: torch's default device stays what it was.
+
     Raises:
         ImportError: if ``DDE_BACKEND`` names another backend, or deepxde was already
             imported with another backend.
@@ -35,6 +38,12 @@ def ensure_pytorch_backend():
             f"DDE_BACKEND={chosen!r} selects another DeepXDE backend; nh_operators needs "
             "'pytorch'. Unset DDE_BACKEND or set it to 'pytorch'."
         )
+    import torch
+
+    device = torch.get_default_device()
     with contextlib.redirect_stderr(io.StringIO()):
         import deepxde
+    # With CUDA present deepxde calls torch.set_default_device("cuda") on import;
+    # put the user's default back (the trainer picks its device explicitly).
+    torch.set_default_device(device)
     return deepxde

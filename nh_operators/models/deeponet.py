@@ -1,0 +1,46 @@
+"""DeepONet: DeepXDE's own ``DeepONetCartesianProd``, configured for (q, p)."""
+
+from ._layers import _dde, split_inputs
+
+__all__ = ["DeepONet"]
+
+
+class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
+    """DeepXDE's ``DeepONetCartesianProd`` with the paper's layout (§2.1).
+
+    Not a re-implementation: this only turns the paper's three parameters into
+    DeepXDE's layer lists. Branch: V (B, m) → ``hidden_layers`` × ``hidden_size`` →
+    2 · ``branches``; trunk: t (M, 1) → the same; with DeepXDE's ``split_both``
+    strategy the first ``branches`` features give q and the last give p, each an
+    inner product plus a learned bias.
+
+    Args:
+        hidden_size: width of the hidden layers (paper: 128).
+        hidden_layers: hidden layers of branch and trunk (paper: 3).
+        branches: basis functions per output, l (paper: 10).
+        activation: DeepXDE activation name (default "gelu").
+        initializer: DeepXDE initializer name (default "Glorot normal").
+        n_sensors: length m of V (default 100).
+        n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
+
+    Example:
+        >>> import torch
+        >>> net = DeepONet(hidden_size=16, hidden_layers=2, branches=4)
+        >>> net((torch.zeros(3, 100), torch.linspace(0, 2, 7)[:, None])).shape
+        torch.Size([3, 7, 2])
+    """
+
+    def __init__(self, hidden_size=128, hidden_layers=3, branches=10,
+                 activation="gelu", initializer="Glorot normal", n_sensors=100,
+                 n_outputs=2):
+        hidden = [hidden_size] * hidden_layers
+        width = n_outputs * branches
+        super().__init__(
+            [n_sensors, *hidden, width], [1, *hidden, width], activation, initializer,
+            num_outputs=n_outputs,
+            multi_output_strategy="split_both" if n_outputs > 1 else None)
+        self.n_sensors = n_sensors
+
+    def forward(self, inputs):
+        split_inputs(inputs, self.n_sensors)
+        return super().forward(inputs)

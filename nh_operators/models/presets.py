@@ -1,0 +1,41 @@
+"""Architecture and training presets: the paper's optimum, and small CPU versions.
+
+``paper``: the architectures of the paper's grid search (its appendix table
+"Grid Search Range and Results") and the learning rates, upper bounds, infima and
+β of its TPE table. FNO is not in the paper: its ``paper`` preset is our choice.
+
+``cpu``: small enough that one epoch on the standard 8,000 training potentials takes
+at most a minute on a 2-core CPU (measured by ``benchmarks/model_throughput.py``);
+the training values are the paper's.
+"""
+
+ARCHITECTURES = {
+    "paper": {
+        "deeponet": dict(hidden_size=128, hidden_layers=3, branches=10),
+        "traonet": dict(d_model=64, nhead=8, num_layers=3, dim_feedforward=512),
+        "varonet": dict(hidden_size=512, num_layers=4, latent_dim=30),
+        "mambonet": dict(d_model=128, num_mamba_layers=4, nhead=4,
+                         num_decoder_layers=4, dim_feedforward=1024),
+        "fno": dict(n_modes=16, hidden_channels=64, n_layers=4),
+    },
+    "cpu": {
+        "deeponet": dict(hidden_size=128, hidden_layers=3, branches=10),
+        "traonet": dict(d_model=32, nhead=4, num_layers=2, dim_feedforward=128),
+        "varonet": dict(hidden_size=64, num_layers=2, latent_dim=16),
+        "mambonet": dict(d_model=32, num_mamba_layers=2, nhead=4,
+                         num_decoder_layers=2, dim_feedforward=128),
+        "fno": dict(n_modes=16, hidden_channels=32, n_layers=4),
+    },
+}
+
+#: The paper's TPE optimum (ExpHyperbolicLR, AdamW betas (0.85, 0.98), batch 100).
+TRAINING = {
+    "deeponet": dict(lr=7.3256e-3, upper_bound=300, infimum_lr=1.7369e-3),
+    "traonet": dict(lr=1.4645e-3, upper_bound=300, infimum_lr=4.5159e-5),
+    "varonet": dict(lr=8.6721e-4, upper_bound=300, infimum_lr=6.2651e-6,
+                    beta=5.4963e-2),
+    "mambonet": dict(lr=9.7931e-4, upper_bound=350, infimum_lr=1.0310e-5),
+    "fno": dict(lr=1e-3, upper_bound=300, infimum_lr=1e-5),
+}
+
+PRESETS = tuple(ARCHITECTURES)

@@ -1,0 +1,53 @@
+"""TraONet: a transformer encoder over the potential, a transformer decoder over time."""
+
+from torch import nn
+
+from ._layers import OperatorNet, SensorEmbedding, TimeDecoder
+
+__all__ = ["TraONet"]
+
+
+class TraONet(OperatorNet):
+    """Transformer operator network (the paper's §2.3).
+
+    Each sensor value V(x_j) is embedded by a shared Linear(1, d) plus the sinusoidal
+    encoding of its index; a transformer encoder turns these tokens into a memory
+    (B, m, d). Query times go through :class:`~nh_operators.models._layers.TimeDecoder`
+    (embedding, sinusoidal encoding of t, transformer decoder without masks, and an
+    output layer to (q, p) — the layer the reference code skipped).
+
+    Args:
+        d_model: token width d (paper: 64). Must be even and divisible by ``nhead``.
+        nhead: attention heads (paper: 8).
+        num_layers: encoder layers and decoder layers each (paper: 3).
+        dim_feedforward: width of the feed-forward blocks (paper: 512).
+        dropout: dropout in the transformer layers (default 0: a regression).
+        n_sensors: length m of V (default 100).
+        n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
+        time_scale: positions of the time encoding are t · time_scale (default 99/2:
+            the index on the standard grid t_i = 2i/99).
+
+    Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
+
+    Example:
+        >>> import torch
+        >>> net = TraONet(d_model=16, nhead=2, num_layers=1, dim_feedforward=32)
+        >>> net((torch.zeros(3, 100), torch.linspace(0, 2, 7)[:, None])).shape
+        torch.Size([3, 7, 2])
+    """
+
+    def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
+                 dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2):
+        super().__init__()
+        self.n_sensors = n_sensors
+        self.n_outputs = n_outputs
+        self.embedding = SensorEmbedding(d_model, positional=True)
+        layer = nn.TransformerEncoderLayer(d_model, nhead, dim_feedforward, dropout,
+                                           batch_first=True)
+        self.encoder = nn.TransformerEncoder(layer, num_layers,
+                                             enable_nested_tensor=False)
+        self.decoder = TimeDecoder(d_model, nhead, num_layers, dim_feedforward,
+                                   n_outputs, dropout, time_scale)
+
+    def _forward(self, V, t):
+        return self.decoder(t, self.encoder(self.embedding(V)))

@@ -1,0 +1,75 @@
+"""VaRONet: an LSTM encoder, a Gaussian latent, and LSTM decoders for q and p."""
+
+import torch
+from torch import nn
+
+from ._layers import OperatorNet
+
+__all__ = ["VaRONet"]
+
+
+class VaRONet(OperatorNet):
+    """Variational recurrent operator network (the paper's §2.2).
+
+    An LSTM reads V(x_1), ..., V(x_m); its last hidden state h gives μ = F_μ(h) and
+    log σ² = F_σ(h). In training z = μ + σ ⊙ ε with ε ~ N(0, I) (the
+    reparameterisation trick); in eval mode z = μ, so predictions are deterministic.
+    Linear maps of z give the initial hidden and cell states of two LSTM decoders,
+    which read the query times in order and emit q and p through Linear(H, 1) heads.
+
+    After every forward, ``self.kl`` holds the batch mean of
+    KL(N(μ, σ²) ‖ N(0, I)) = −½ Σ (1 + log σ² − μ² − σ²); the training data object
+    (:class:`nh_operators.train.OperatorData`) adds β · kl to the loss as its own
+    column.
+
+    Args:
+        hidden_size: LSTM width H (paper: 512).
+        num_layers: layers of every LSTM (paper: 4).
+        latent_dim: size of z (paper: 30).
+        n_sensors: length m of V (default 100).
+        n_outputs: decoders, 2 for (q, p) (1 gives shape (B, M)).
+
+    Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs). The decoders
+    read the times as a sequence, so ask for them in increasing order.
+
+    Example:
+        >>> import torch
+        >>> net = VaRONet(hidden_size=8, num_layers=1, latent_dim=4).eval()
+        >>> y = net((torch.zeros(3, 100), torch.linspace(0, 2, 6)[:, None]))
+        >>> y.shape, net.kl.shape
+        (torch.Size([3, 6, 2]), torch.Size([]))
+    """
+
+    def __init__(self, hidden_size=512, num_layers=4, latent_dim=30, n_sensors=100,
+                 n_outputs=2):
+        super().__init__()
+        self.n_sensors = n_sensors
+        self.n_outputs = n_outputs
+        self.hidden_size = hidden_size
+        self.num_layers = num_layers
+        self.encoder = nn.LSTM(1, hidden_size, num_layers, batch_first=True)
+        self.mu = nn.Linear(hidden_size, latent_dim)
+        self.logvar = nn.Linear(hidden_size, latent_dim)
+        self.init_states = nn.ModuleList(
+            nn.Linear(latent_dim, 2 * num_layers * hidden_size) for _ in range(n_outputs))
+        self.decoders = nn.ModuleList(
+            nn.LSTM(1, hidden_size, num_layers, batch_first=True)
+            for _ in range(n_outputs))
+        self.heads = nn.ModuleList(nn.Linear(hidden_size, 1) for _ in range(n_outputs))
+        self.kl = None
+
+    def _forward(self, V, t):
+        _, (h, _) = self.encoder(V[..., None])
+        h = h[-1]
+        mu, logvar = self.mu(h), self.logvar(h)
+        self.kl = torch.mean(-0.5 * torch.sum(1 + logvar - mu**2 - logvar.exp(), dim=-1))
+        z = mu + torch.exp(0.5 * logvar) * torch.randn_like(mu) if self.training else mu
+        times = t[None].expand(V.shape[0], -1, -1)
+        outs = []
+        for init, decoder, head in zip(self.init_states, self.decoders, self.heads):
+            state = init(z).view(V.shape[0], 2, self.num_layers, self.hidden_size)
+            h0 = state[:, 0].transpose(0, 1).contiguous()
+            c0 = state[:, 1].transpose(0, 1).contiguous()
+            seq, _ = decoder(times, (h0, c0))
+            outs.append(head(seq))
+        return torch.cat(outs, dim=-1)
