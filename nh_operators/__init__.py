@@ -20,6 +20,12 @@ from .solvers import (  # noqa: E402
     reference_solve,
 )
 from .space import BoundedPotentialSpace  # noqa: E402
+from .checkpoint import load_model  # noqa: E402
+from .inference import predict  # noqa: E402
+from .models import MODELS, build_model, count_parameters  # noqa: E402
+from .operator_data import OperatorData  # noqa: E402
+from .schedulers import ExpHyperbolicLR, HyperbolicLR  # noqa: E402
+from .train import TrainConfig, TrainingDiverged, train  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -36,4 +42,15 @@ __all__ = [
     "integrate_sensors",
     "paper_rk4",
     "reference_solve",
+    "MODELS",
+    "build_model",
+    "count_parameters",
+    "OperatorData",
+    "ExpHyperbolicLR",
+    "HyperbolicLR",
+    "TrainConfig",
+    "TrainingDiverged",
+    "train",
+    "load_model",
+    "predict",
 ]

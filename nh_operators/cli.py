@@ -1,4 +1,4 @@
-"""Command line: ``nh-operators generate`` and ``nh-operators demo`` (parse, then call)."""
+"""Command line: ``nh-operators generate | demo | train`` (parse, then call the library)."""
 
 import argparse
 import os
@@ -48,6 +48,39 @@ def _demo(args):
     print(f"\nfigure: {path}")
 
 
+def _arch_overrides(items):
+    import ast
+
+    arch = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--arch takes KEY=VALUE, got {item!r}")
+        try:
+            arch[key] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            arch[key] = value
+    return arch
+
+
+def _train(args):
+    from .models import count_parameters
+    from .train import TrainConfig, train
+
+    config = TrainConfig(
+        model=args.model, preset=args.preset, arch=_arch_overrides(args.arch),
+        epochs=args.epochs, seed=args.seed, batch_size=args.batch_size, lr=args.lr,
+        upper_bound=args.upper_bound, infimum_lr=args.infimum_lr, beta=args.beta,
+        scheduler=args.scheduler, dtype=args.dtype, device=args.device, amp=args.amp)
+    net, history = train(config, args.data, args.out, resume=args.resume,
+                         progress=not args.quiet)
+    last = history[-1]
+    print(f"{args.model} ({args.preset}, {count_parameters(net)} parameters): "
+          f"{last['epoch']} epochs in {last['seconds'] / 60:.1f} min, train loss "
+          f"{last['train_loss']:.3e}, validation loss {last['val_loss']:.3e}; "
+          f"run directory {args.out}")
+
+
 def build_parser():
     parser = argparse.ArgumentParser(prog="nh-operators", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -62,16 +95,45 @@ def build_parser():
     demo = sub.add_parser("demo", help="classical solvers on the physical potentials")
     demo.add_argument("--out", default="demo", help="folder for the figure")
     demo.set_defaults(run=_demo)
+    tr = sub.add_parser("train", help="train a network in DeepXDE's loop")
+    tr.add_argument("--model", required=True,
+                    choices=["deeponet", "traonet", "varonet", "mambonet", "fno"])
+    tr.add_argument("--preset", default="cpu", choices=["paper", "cpu"],
+                    help="architecture preset (default: cpu)")
+    tr.add_argument("--data", required=True, help="dataset .h5 (nh-operators generate)")
+    tr.add_argument("--epochs", type=int, default=10)
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--out", required=True, help="run directory")
+    tr.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    tr.add_argument("--arch", action="append", metavar="KEY=VALUE",
+                    help="architecture override, repeatable (e.g. --arch d_model=64)")
+    tr.add_argument("--batch-size", type=int, default=100)
+    tr.add_argument("--lr", type=float, help="initial learning rate (default: paper's)")
+    tr.add_argument("--upper-bound", type=float, help="schedule upper bound U")
+    tr.add_argument("--infimum-lr", type=float, help="schedule infimum")
+    tr.add_argument("--beta", type=float, help="KL weight (VaRONet)")
+    tr.add_argument("--scheduler", default="exphyperbolic",
+                    choices=["exphyperbolic", "hyperbolic", "constant"])
+    tr.add_argument("--dtype", default="float32", choices=["float32", "float64"])
+    tr.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
+    tr.add_argument("--amp", action="store_true", help="float16 autocast (CUDA only)")
+    tr.add_argument("--quiet", action="store_true", help="no progress bar")
+    tr.set_defaults(run=_train)
     return parser
 
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    from .train import TrainingDiverged
+
     try:
         args.run(args)
-    except (ValueError, FileNotFoundError) as err:
+    except (ValueError, FileNotFoundError, FileExistsError) as err:
         print(f"nh-operators {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except TrainingDiverged as err:
+        print(f"nh-operators {args.command}: {err}", file=sys.stderr)
+        return 3
     return 0
 
 

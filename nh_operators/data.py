@@ -7,7 +7,6 @@ samples, tops up to exactly n, and streams chunks to an HDF5 file (see :mod:`._h
 
 import numpy as np
 
-from ._backend import ensure_pytorch_backend
 from ._constants import SENSORS, TIMES, V0
 from ._h5 import read_dataset, write_streamed
 from ._version import __version__
@@ -93,6 +92,19 @@ class Dataset:
     def seed(self):
         return int(self.attrs["seed"])
 
+    @property
+    def checksum(self):
+        """The file's SHA-256 checksum, or for a dataset never written, a SHA-256 of its
+        arrays (V, t, q, p); checkpoints record it to refuse resuming on other data."""
+        if "checksum" in self.attrs:
+            return self.attrs["checksum"]
+        import hashlib
+
+        digest = hashlib.sha256()
+        for array in (self.V, self.t, self.q, self.p):
+            digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+        return "arrays-sha256:" + digest.hexdigest()
+
     def potential(self, i):
         """The exact true potential of sample i (an object with ``.V`` and ``.dV``)."""
         return BoundedPotential(self.control_q[i], self.control_V[i])
@@ -118,27 +130,32 @@ class Dataset:
         n_train = int(round(train_fraction * len(self)))
         return np.sort(order[:n_train]), np.sort(order[n_train:])
 
-    def to_deepxde(self, train_fraction=0.8, seed=None, dtype=np.float32):
-        """A ``deepxde.data.TripleCartesianProd`` of this dataset.
+    def to_deepxde(self, train_fraction=0.8, seed=None, dtype=np.float32, **kwargs):
+        """DeepXDE training data of this dataset: an :class:`~nh_operators.OperatorData`.
 
         Branch input V (N, 100), trunk input t as (100, 1), targets stack(q, p) of shape
-        (N, 100, 2); the validation part is DeepXDE's "test" set.
+        (N, 100, 2); the validation part is DeepXDE's "test" set. ``OperatorData`` is a
+        ``deepxde.data.TripleCartesianProd`` with reproducible batches, an optional
+        KL term and batched validation.
 
         Args:
             train_fraction: training fraction of the random split (default 0.8).
             seed: split seed (default: the dataset's seed).
             dtype: array dtype handed to DeepXDE (networks train in float32).
+            **kwargs: passed to :class:`~nh_operators.OperatorData` (``beta``,
+                ``shuffle_seed``, ``monitor_size``).
 
         Returns:
-            deepxde.data.TripleCartesianProd
+            OperatorData
         """
-        dde = ensure_pytorch_backend()
+        from .operator_data import OperatorData
+
         train, val = self.split_indices(train_fraction, seed)
         y = np.stack([self.q, self.p], axis=-1).astype(dtype)
         trunk = self.t[:, None].astype(dtype)
-        return dde.data.TripleCartesianProd(
+        return OperatorData(
             (self.V[train].astype(dtype), trunk), y[train],
-            (self.V[val].astype(dtype), trunk), y[val],
+            (self.V[val].astype(dtype), trunk), y[val], **kwargs,
         )
 
 

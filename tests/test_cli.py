@@ -38,3 +38,23 @@ def test_demo_prints_table_and_writes_figure(tmp_path, capsys):
     rows = {line.split()[0]: line.split()[1:] for line in text.splitlines() if line[:1].isalpha()}
     assert float(rows["rk4_sensors_4"][0]) < 1e-3 * float(rows["paper_rk4"][0])
     assert (tmp_path / "physical_potentials.png").stat().st_size > 10_000
+
+
+def test_train_writes_a_run_directory_and_resumes(tmp_path, capsys):
+    data = tmp_path / "d.h5"
+    assert main(["generate", "--size", "40", "--seed", "2", "--out", str(data),
+                 "--quiet"]) == 0
+    run = tmp_path / "run"
+    args = ["train", "--model", "deeponet", "--data", str(data), "--epochs", "2",
+            "--seed", "1", "--out", str(run), "--batch-size", "16", "--quiet",
+            "--arch", "hidden_size=16", "--arch", "branches=4"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "deeponet (cpu," in text and "2 epochs" in text
+    assert {p.name for p in run.iterdir()} == {"checkpoint.pt", "config.json",
+                                               "history.csv"}
+    assert main(args) == 2
+    assert "--resume" in capsys.readouterr().err
+    assert main(args + ["--resume"]) == 0  # already complete: nothing left to do
+    assert main(args[:-4] + ["--arch", "widht=3", "--out", str(tmp_path / "r2")]) == 2
+    assert "no argument(s) ['widht']" in capsys.readouterr().err

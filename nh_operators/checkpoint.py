@@ -1,0 +1,112 @@
+"""Run directories: atomic checkpoints, the config, the loss history, and ``load_model``.
+
+A run directory written by :func:`nh_operators.train` holds
+
+* ``checkpoint.pt`` — model, optimiser and scheduler states, the epoch, RNG states,
+  the full config and the dataset checksum (rewritten atomically after every epoch);
+* ``config.json`` — the resolved training config;
+* ``history.csv`` — one row per epoch: train and validation loss, learning rate, time.
+"""
+
+import csv
+import io
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import torch
+
+__all__ = ["CHECKPOINT", "load_checkpoint", "load_model", "write_atomic",
+           "save_checkpoint", "write_history"]
+
+CHECKPOINT = "checkpoint.pt"
+CONFIG = "config.json"
+HISTORY = "history.csv"
+FORMAT = 1
+
+
+def write_atomic(path, data):
+    """Write bytes to ``path`` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_checkpoint(run_dir, state):
+    """Atomically write ``state`` (a dict) as ``run_dir/checkpoint.pt``."""
+    buf = io.BytesIO()
+    torch.save({"format": FORMAT, **state}, buf)
+    write_atomic(Path(run_dir) / CHECKPOINT, buf.getvalue())
+
+
+def write_config(run_dir, config):
+    write_atomic(Path(run_dir) / CONFIG,
+                 (json.dumps(config, indent=2, sort_keys=True) + "\n").encode())
+
+
+def write_history(run_dir, history):
+    """Atomically write the per-epoch records (list of dicts) as ``history.csv``."""
+    if not history:
+        return
+    out = io.StringIO()
+    writer = csv.DictWriter(out, fieldnames=list(history[0]), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(history)
+    write_atomic(Path(run_dir) / HISTORY, out.getvalue().encode())
+
+
+def load_checkpoint(run_dir, map_location="cpu"):
+    """The checkpoint dict of a run directory (or of a checkpoint file).
+
+    Raises:
+        FileNotFoundError: if there is no checkpoint.
+        ValueError: if the file is not an nh-operators checkpoint.
+    """
+    path = Path(run_dir)
+    if path.is_dir():
+        path = path / CHECKPOINT
+    if not path.is_file():
+        raise FileNotFoundError(f"no checkpoint at {str(path)!r}")
+    state = torch.load(path, map_location=map_location, weights_only=False)
+    if not isinstance(state, dict) or state.get("format") != FORMAT:
+        raise ValueError(f"{str(path)!r} is not an nh-operators checkpoint "
+                         f"(format {FORMAT})")
+    return state
+
+
+def load_model(run_dir, device="cpu"):
+    """Rebuild a trained network from its run directory.
+
+    Args:
+        run_dir: folder written by :func:`nh_operators.train` (or its checkpoint file).
+        device: where to put the network (default "cpu").
+
+    Returns:
+        (network, config): the network in eval mode, in the dtype it was trained in,
+        and the run's config dict.
+
+    Raises:
+        FileNotFoundError, ValueError: as :func:`load_checkpoint`.
+
+    Example:
+        >>> net, config = load_model("runs/traonet")  # doctest: +SKIP
+    """
+    from .models import build_model, cast_network
+
+    state = load_checkpoint(run_dir)
+    config = state["config"]
+    with torch.random.fork_rng(devices=[]):
+        net = build_model(config["model"], config["preset"], **config["arch"])
+    net = cast_network(net, getattr(torch, config["dtype"]))
+    net.load_state_dict(state["model"])
+    return net.to(device).eval(), config

@@ -1,0 +1,61 @@
+"""Batched prediction with a trained network."""
+
+import numpy as np
+import torch
+
+__all__ = ["predict"]
+
+
+def predict(net, V, t, batch_size=1000):
+    """Predict q(t) and p(t) for many potentials, in batches, without a graph.
+
+    Args:
+        net: a network of :data:`nh_operators.MODELS` (or any DeepXDE network with
+            the same ``(V, t)`` → (B, M, 2) contract).
+        V: potentials at the sensors, array of shape (N, 100) (or (100,) for one).
+        t: query times, shape (M,) or (M, 1).
+        batch_size: potentials per forward (memory grows with it).
+
+    Returns:
+        (q, p): NumPy float64 arrays of shape (N, M) (or (M,) for a single V).
+
+    Raises:
+        ValueError: for wrong shapes, non-finite inputs or a bad batch size.
+
+    Example:
+        >>> import numpy as np, nh_operators as nh
+        >>> net = nh.build_model("deeponet", preset="cpu")
+        >>> q, p = nh.predict(net, np.zeros((3, 100)), np.linspace(0, 2, 5))
+        >>> q.shape
+        (3, 5)
+    """
+    V = np.asarray(V, dtype=np.float64)
+    single = V.ndim == 1
+    if single:
+        V = V[None]
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim == 2 and t.shape[1] == 1:
+        t = t[:, 0]
+    if V.ndim != 2:
+        raise ValueError(f"V must have shape (N, n_sensors), got {V.shape}")
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError(f"t must have shape (M,) or (M, 1) with M ≥ 1, got {t.shape}")
+    if not (np.all(np.isfinite(V)) and np.all(np.isfinite(t))):
+        raise ValueError("V and t must be finite")
+    if int(batch_size) != batch_size or batch_size < 1:
+        raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
+    param = next(net.parameters())
+    tt = torch.as_tensor(t[:, None], dtype=param.dtype, device=param.device)
+    was_training = net.training
+    net.eval()
+    out = np.empty((len(V), len(t), 2))
+    try:
+        with torch.no_grad():
+            for start in range(0, len(V), batch_size):
+                v = torch.as_tensor(V[start:start + batch_size], dtype=param.dtype,
+                                    device=param.device)
+                out[start:start + len(v)] = net((v, tt)).double().cpu().numpy()
+    finally:
+        net.train(was_training)
+    q, p = out[..., 0], out[..., 1]
+    return (q[0], p[0]) if single else (q, p)

@@ -1,0 +1,142 @@
+"""DeepXDE training data for the operators: reproducible batches, a KL column, batched
+validation.
+
+:class:`OperatorData` is a ``deepxde.data.TripleCartesianProd`` (so it is what
+``dde.Model`` expects) with three changes DeepXDE has no hook for:
+
+* batches come from a per-epoch permutation drawn from ``(shuffle_seed, epoch)``
+  instead of NumPy's global generator, so a run is reproducible and can resume at any
+  epoch boundary;
+* a network with a ``kl`` attribute (VaRONet) gets β · kl as a second loss column
+  (DeepXDE sums the columns for the gradient and reports them separately);
+* :meth:`validation_loss` evaluates the whole validation set in batches, while
+  :meth:`test` (which DeepXDE evaluates in one forward) returns a small monitor batch.
+"""
+
+import math
+
+import numpy as np
+import torch
+
+from ._backend import ensure_pytorch_backend
+
+dde = ensure_pytorch_backend()
+
+__all__ = ["OperatorData"]
+
+
+class OperatorData(dde.data.TripleCartesianProd):
+    """``TripleCartesianProd`` with reproducible batches, a KL term and batched validation.
+
+    Args:
+        X_train: (V_train (N, m), t (M, 1)).
+        y_train: (N, M, 2) targets (q, p), or (N, M).
+        X_test: (V_val, t) for validation.
+        y_test: validation targets.
+        beta: weight β of a network's KL term (VaRONet), default 0.
+        shuffle_seed: seed of the batch order.
+        monitor_size: validation samples DeepXDE's own display evaluates (default 100).
+
+    The batch size is the one given to ``dde.Model.train``; an integer only
+    (DeepXDE's tuple batch size indexes the targets wrongly).
+
+    Attributes:
+        cursor: iterations taken; advanced by the trainer after each step (see
+            :meth:`advance`). Iteration k uses batch k mod steps of epoch
+            k // steps.
+        last_loss: the data loss of the last training step, as a float.
+    """
+
+    def __init__(self, X_train, y_train, X_test, y_test, *, beta=0.0, shuffle_seed=0,
+                 monitor_size=100):
+        super().__init__(X_train, y_train, X_test, y_test)
+        if beta < 0:
+            raise ValueError(f"beta must be non-negative, got {beta}")
+        self.beta = float(beta)
+        self.shuffle_seed = int(shuffle_seed)
+        self.monitor_size = int(monitor_size)
+        self.cursor = 0
+        self.last_loss = None
+        self._record = False
+        self._perm = (None, None)
+
+    @property
+    def n_train(self):
+        return len(self.train_x[0])
+
+    def steps_per_epoch(self, batch_size):
+        """Iterations per epoch (the last batch of an epoch may be smaller)."""
+        return math.ceil(self.n_train / batch_size)
+
+    def _permutation(self, epoch):
+        if self._perm[0] != epoch:
+            rng = np.random.default_rng([self.shuffle_seed, epoch])
+            self._perm = (epoch, rng.permutation(self.n_train))
+        return self._perm[1]
+
+    def train_next_batch(self, batch_size=None):
+        if batch_size is None:
+            return self.train_x, self.train_y
+        if isinstance(batch_size, (tuple, list)):
+            raise ValueError("OperatorData takes an integer batch size (DeepXDE's tuple "
+                             "batch size pairs the targets wrongly)")
+        steps = self.steps_per_epoch(batch_size)
+        epoch, k = divmod(self.cursor, steps)
+        idx = self._permutation(epoch)[k * batch_size:(k + 1) * batch_size]
+        self._record = True
+        return (self.train_x[0][idx], self.train_x[1]), self.train_y[idx]
+
+    def advance(self):
+        """Move to the next batch; called once per training iteration."""
+        self.cursor += 1
+
+    def test(self):
+        n = min(self.monitor_size, len(self.test_x[0]))
+        return (self.test_x[0][:n], self.test_x[1]), self.test_y[:n]
+
+    def _losses(self, targets, outputs, loss_fn, model):
+        data = loss_fn(targets, outputs)
+        kl = getattr(model.net, "kl", None)
+        if hasattr(model.net, "kl") and kl is not None:
+            return [data, self.beta * kl]
+        return [data]
+
+    def losses_train(self, targets, outputs, loss_fn, inputs, model, aux=None):
+        losses = self._losses(targets, outputs, loss_fn, model)
+        if self._record:  # the optimiser's call, not DeepXDE's display
+            self.last_loss = float(sum(loss.detach() for loss in losses))
+            self._record = False
+        return losses
+
+    def losses_test(self, targets, outputs, loss_fn, inputs, model, aux=None):
+        return self._losses(targets, outputs, loss_fn, model)
+
+    def validation_loss(self, net, batch_size=100):
+        """Mean per-sample L_tot on the whole validation set, in batches.
+
+        Args:
+            net: the network (set to eval mode for the pass, then restored).
+            batch_size: samples per forward.
+
+        Returns:
+            float: mean over samples of (L_q + L_p) / 2 (= the MSE over all entries).
+        """
+        param = next(net.parameters())
+        was_training = net.training
+        net.eval()
+        total, count = 0.0, 0
+        V, t = self.test_x
+        t = torch.as_tensor(t, device=param.device, dtype=param.dtype)
+        try:
+            with torch.no_grad():
+                for start in range(0, len(V), batch_size):
+                    v = torch.as_tensor(V[start:start + batch_size], device=param.device,
+                                        dtype=param.dtype)
+                    y = torch.as_tensor(self.test_y[start:start + batch_size],
+                                        device=param.device, dtype=param.dtype)
+                    err = (net((v, t)) - y) ** 2
+                    total += float(err.mean(dim=tuple(range(1, err.ndim))).sum())
+                    count += len(v)
+        finally:
+            net.train(was_training)
+        return total / count

@@ -1,0 +1,360 @@
+"""Training a network in DeepXDE's loop: AdamW, hyperbolic schedules, checkpoints, resume.
+
+:func:`train` builds the network, wraps the dataset in an
+:class:`~nh_operators.OperatorData`, compiles a ``dde.Model`` with an AdamW instance
+(betas (0.85, 0.98)) and attaches the learning-rate schedule, which DeepXDE steps once
+per *iteration*: the schedules take ``steps_per_epoch`` so that they follow the
+per-epoch curve at fractional epochs. A DeepXDE callback ends every epoch with a
+batched validation pass, a progress-bar update, a history row and an atomic checkpoint.
+"""
+
+import contextlib
+import dataclasses
+import io
+import logging
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ._backend import ensure_pytorch_backend
+from ._version import __version__
+from .checkpoint import (CHECKPOINT, load_checkpoint, save_checkpoint, write_config,
+                         write_history)
+from .models import build_model, cast_network, count_parameters, model_config, training_defaults
+from .schedulers import ExpHyperbolicLR, HyperbolicLR
+
+dde = ensure_pytorch_backend()
+log = logging.getLogger(__name__)
+
+__all__ = ["TrainConfig", "TrainingDiverged", "train", "resolve_device"]
+
+SCHEDULERS = {"exphyperbolic": ExpHyperbolicLR, "hyperbolic": HyperbolicLR,
+              "constant": None}
+
+
+class TrainingDiverged(RuntimeError):
+    """The training loss became non-finite; the last good checkpoint is kept."""
+
+
+@dataclasses.dataclass
+class TrainConfig:
+    """Everything that defines a training run (saved in its checkpoint and config.json).
+
+    Args:
+        model: a key of :data:`nh_operators.MODELS`.
+        preset: architecture preset, "paper" or "cpu".
+        arch: constructor arguments replacing the preset's.
+        epochs: number of epochs (also the schedule's ``max_iter``).
+        seed: seed of the weights, the batch order and the VaRONet noise.
+        batch_size: potentials per iteration (paper: 100).
+        lr, upper_bound, infimum_lr, beta: schedule and KL weight; ``None`` takes the
+            paper's tuned value for the model (see ``training_defaults``).
+        scheduler: "exphyperbolic" (paper), "hyperbolic" or "constant".
+        weight_decay: AdamW weight decay (default 0.01, PyTorch's).
+        betas: AdamW betas (paper: (0.85, 0.98)).
+        dtype: "float32" (default) or "float64".
+        device: "auto" (CUDA when available), "cpu", "cuda", "cuda:1", ...
+        amp: float16 autocast through DeepXDE's mixed mode; CUDA only.
+        train_fraction: training part of the dataset's 80/20 split.
+    """
+
+    model: str
+    preset: str = "cpu"
+    arch: dict = dataclasses.field(default_factory=dict)
+    epochs: int = 10
+    seed: int = 0
+    batch_size: int = 100
+    lr: float = None
+    upper_bound: float = None
+    infimum_lr: float = None
+    beta: float = None
+    scheduler: str = "exphyperbolic"
+    weight_decay: float = 0.01
+    betas: tuple = (0.85, 0.98)
+    dtype: str = "float32"
+    device: str = "auto"
+    amp: bool = False
+    train_fraction: float = 0.8
+
+    def resolved(self):
+        """A plain dict with every default filled in, validated.
+
+        Raises:
+            ValueError: naming the first bad value.
+        """
+        cfg = dataclasses.asdict(self)
+        cfg["arch"] = model_config(self.model, self.preset, **self.arch)
+        defaults = training_defaults(self.model)
+        for key in ("lr", "upper_bound", "infimum_lr"):
+            if cfg[key] is None:
+                cfg[key] = defaults[key]
+        if cfg["beta"] is None:
+            cfg["beta"] = defaults.get("beta", 0.0)
+        cfg["betas"] = list(cfg["betas"])
+        if int(cfg["epochs"]) != cfg["epochs"] or cfg["epochs"] < 1:
+            raise ValueError(f"epochs must be a positive integer, got {cfg['epochs']}")
+        if int(cfg["batch_size"]) != cfg["batch_size"] or cfg["batch_size"] < 1:
+            raise ValueError(f"batch_size must be a positive integer, got "
+                             f"{cfg['batch_size']}")
+        if cfg["scheduler"] not in SCHEDULERS:
+            raise ValueError(f"unknown scheduler {cfg['scheduler']!r}; choose from "
+                             f"{sorted(SCHEDULERS)}")
+        if cfg["scheduler"] != "constant" and cfg["upper_bound"] < cfg["epochs"]:
+            raise ValueError(f"upper_bound ({cfg['upper_bound']}) must be at least the "
+                             f"number of epochs ({cfg['epochs']})")
+        if cfg["dtype"] not in ("float32", "float64"):
+            raise ValueError(f"dtype must be 'float32' or 'float64', got {cfg['dtype']!r}")
+        if not cfg["lr"] > 0:
+            raise ValueError(f"lr must be positive, got {cfg['lr']}")
+        return cfg
+
+
+def resolve_device(device="auto"):
+    """``torch.device`` for "auto" (CUDA when available, else CPU) or a device name.
+
+    Raises:
+        ValueError: if CUDA is asked for and not available.
+    """
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    dev = torch.device(device)
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device {device!r} asked for, but CUDA is not available")
+    return dev
+
+
+class _EpochEnd(dde.callbacks.Callback):
+    """Per-iteration bookkeeping and the end-of-epoch work (see :func:`train`)."""
+
+    def __init__(self, run):
+        super().__init__()
+        self.run = run
+
+    def on_train_begin(self):
+        # DeepXDE's first display forward has run; put the RNG where the run left it.
+        if self.run.rng_state is not None:
+            _set_rng_state(self.run.rng_state, self.run.device)
+
+    def on_batch_end(self):
+        run = self.run
+        run.data.advance()
+        loss = run.data.last_loss
+        run.epoch_losses.append(loss)
+        if loss is None or not math.isfinite(loss):
+            run.diverged = run.data.cursor
+            self.model.stop_training = True
+            return
+        if run.data.cursor % run.steps == 0:
+            run.end_epoch()
+
+
+def _rng_state(device):
+    state = {"torch": torch.get_rng_state()}
+    if device.type == "cuda":
+        state["cuda"] = torch.cuda.get_rng_state(device)
+    return state
+
+
+def _set_rng_state(state, device):
+    torch.set_rng_state(state["torch"])
+    if device.type == "cuda" and "cuda" in state:
+        torch.cuda.set_rng_state(state["cuda"], device)
+
+
+class _Run:
+    """State of one training run shared by :func:`train` and its callback."""
+
+    def __init__(self, cfg, out, net, data, model, scheduler, device, checksum,
+                 progress, epoch_callback):
+        self.cfg, self.out, self.net, self.data = cfg, out, net, data
+        self.model, self.scheduler, self.device = model, scheduler, device
+        self.checksum = checksum
+        self.steps = data.steps_per_epoch(cfg["batch_size"])
+        self.history, self.epoch_losses = [], []
+        self.rng_state, self.diverged = None, None
+        self.epoch_callback = epoch_callback
+        self.t0 = time.perf_counter()
+        self.elapsed0 = 0.0
+        self.bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=cfg["epochs"], desc=f"train {cfg['model']}",
+                            unit="epoch")
+
+    @property
+    def epoch(self):
+        return self.data.cursor // self.steps
+
+    def end_epoch(self):
+        lr = self.model.opt.param_groups[0]["lr"]
+        record = {
+            "epoch": self.epoch,
+            "train_loss": float(np.mean(self.epoch_losses)),
+            "val_loss": self.data.validation_loss(self.net, self.cfg["batch_size"]),
+            "lr": lr,
+            "seconds": self.elapsed0 + time.perf_counter() - self.t0,
+        }
+        if not math.isfinite(record["val_loss"]):
+            self.diverged = self.data.cursor
+            self.model.stop_training = True
+            return
+        self.epoch_losses = []
+        self.history.append(record)
+        self.save()
+        if self.bar is not None:
+            self.bar.update(1)
+            self.bar.set_postfix(train=f"{record['train_loss']:.3e}",
+                                 val=f"{record['val_loss']:.3e}", lr=f"{lr:.2e}")
+        if self.epoch_callback is not None:
+            self.epoch_callback(dict(record), self.net)
+
+    def save(self):
+        save_checkpoint(self.out, {
+            "config": self.cfg,
+            "model": self.net.state_dict(),
+            "optimizer": self.model.opt.state_dict(),
+            "scheduler": (None if self.scheduler is None
+                          else self.scheduler.state_dict()),
+            "epoch": self.epoch,
+            "rng": _rng_state(self.device),
+            "data_checksum": self.checksum,
+            "history": self.history,
+            "version": __version__,
+        })
+        write_history(self.out, self.history)
+
+
+def _load_data(data):
+    if isinstance(data, (str, Path)):
+        from .data import load_dataset
+
+        return load_dataset(data)
+    return data
+
+
+def train(config, data, out, *, resume=False, progress=True, epoch_callback=None):
+    """Train a network through ``dde.Model`` and write a run directory.
+
+    Args:
+        config: a :class:`TrainConfig`.
+        data: a :class:`~nh_operators.data.Dataset` or the path of its HDF5 file.
+        out: run directory (created); holds ``checkpoint.pt``, ``config.json`` and
+            ``history.csv`` (see :mod:`nh_operators.checkpoint`).
+        resume: continue from ``out/checkpoint.pt`` when it exists. The config and the
+            dataset checksum must match the checkpoint's; the run then ends exactly
+            where an uninterrupted one would (on the same device).
+        progress: show a progress bar (epoch, train and validation loss, lr, time).
+        epoch_callback: called as ``epoch_callback(record, net)`` after each epoch's
+            checkpoint, with the epoch's history record (a dict) and the network.
+
+    Returns:
+        (network, history): the trained network (train mode) and a list of per-epoch
+        dicts with epoch, train_loss, val_loss, lr and seconds.
+
+    Raises:
+        FileExistsError: ``out`` already holds a checkpoint and ``resume`` is false.
+        ValueError: bad config, or a checkpoint that does not match it.
+        TrainingDiverged: the loss became non-finite (the last good epoch's
+            checkpoint stays in ``out``).
+
+    Example:
+        >>> import nh_operators as nh  # doctest: +SKIP
+        >>> cfg = nh.TrainConfig("traonet", preset="cpu", epochs=5, seed=1)
+        >>> net, history = nh.train(cfg, "standard.h5", "runs/traonet")
+    """
+    cfg = config.resolved()
+    device = resolve_device(cfg["device"])
+    if cfg["amp"] and device.type != "cuda":
+        raise ValueError("amp (float16 autocast) is only supported on CUDA")
+    dataset = _load_data(data)
+    checksum = dataset.checksum
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    state = None
+    if (out / CHECKPOINT).exists():
+        if not resume:
+            raise FileExistsError(f"{str(out)!r} already holds a checkpoint; pass "
+                                  "resume=True (--resume) or choose another folder")
+        state = load_checkpoint(out, map_location=device)
+        _check_resumable(state, cfg, checksum)
+    write_config(out, cfg)
+
+    dtype = getattr(torch, cfg["dtype"])
+    with torch.random.fork_rng(devices=[device] if device.type == "cuda" else []):
+        torch.manual_seed(cfg["seed"])
+        net = build_model(cfg["model"], cfg["preset"], **cfg["arch"])
+        net = cast_network(net, dtype).to(device)
+        data_obj = dataset.to_deepxde(cfg["train_fraction"],
+                                      dtype=np.float64 if cfg["dtype"] == "float64"
+                                      else np.float32,
+                                      beta=cfg["beta"], shuffle_seed=cfg["seed"],
+                                      monitor_size=cfg["batch_size"])
+        model = dde.Model(data_obj, net)
+        opt = torch.optim.AdamW(net.parameters(), lr=cfg["lr"], betas=tuple(cfg["betas"]),
+                                weight_decay=cfg["weight_decay"])
+        steps = data_obj.steps_per_epoch(cfg["batch_size"])
+        with contextlib.redirect_stdout(io.StringIO()):
+            model.compile(opt, loss="mse", verbose=0)
+        sched_cls = SCHEDULERS[cfg["scheduler"]]
+        scheduler = None if sched_cls is None else sched_cls(
+            opt, cfg["upper_bound"], cfg["epochs"], cfg["infimum_lr"],
+            steps_per_epoch=steps)
+        model.lr_scheduler = scheduler
+        run = _Run(cfg, out, net, data_obj, model, scheduler, device, checksum,
+                   progress, epoch_callback)
+        if state is not None:
+            _restore(run, state)
+        remaining = cfg["epochs"] * steps - data_obj.cursor
+        log.info("training %s (%d parameters) on %s for %d iterations",
+                 cfg["model"], count_parameters(net), device, remaining)
+        try:
+            if remaining > 0:
+                _fit(model, run, remaining)
+        finally:
+            if run.bar is not None:
+                run.bar.close()
+    if run.diverged is not None:
+        epoch = (run.diverged - 1) // steps + 1
+        raise TrainingDiverged(
+            f"non-finite loss in epoch {epoch} (iteration {run.diverged}); training "
+            f"stopped. The checkpoint of epoch {run.epoch if run.history else 0} is "
+            f"kept in {str(out)!r}; try a smaller lr (now {cfg['lr']:g}).")
+    return net, run.history
+
+
+def _fit(model, run, iterations):
+    mixed = dde.config.mixed
+    dde.config.mixed = bool(run.cfg["amp"])
+    try:
+        with torch.device(run.device), contextlib.redirect_stdout(io.StringIO()):
+            model.train(iterations=iterations, batch_size=run.cfg["batch_size"],
+                        display_every=run.steps, callbacks=[_EpochEnd(run)], verbose=0)
+    finally:
+        dde.config.mixed = mixed
+
+
+def _check_resumable(state, cfg, checksum):
+    old = dict(state["config"])
+    if old != cfg:
+        diff = sorted(k for k in set(old) | set(cfg) if old.get(k) != cfg.get(k))
+        raise ValueError(f"cannot resume: the checkpoint's config differs in {diff}")
+    if state.get("data_checksum") != checksum:
+        raise ValueError("cannot resume: the dataset differs from the checkpoint's "
+                         "(checksum mismatch)")
+
+
+def _restore(run, state):
+    run.net.load_state_dict(state["model"])
+    run.model.opt.load_state_dict(state["optimizer"])
+    if run.scheduler is not None:
+        run.scheduler.load_state_dict(state["scheduler"])
+    run.data.cursor = state["epoch"] * run.steps
+    run.history = list(state["history"])
+    run.rng_state = state["rng"]
+    run.elapsed0 = run.history[-1]["seconds"] if run.history else 0.0
+    if run.bar is not None:
+        run.bar.update(state["epoch"])
