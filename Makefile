@@ -23,6 +23,7 @@ test-all: $(BIN)/.installed  ## also the slow checks
 bench: $(BIN)/.installed  ## benchmark tables (minutes)
 	$(BIN)/python benchmarks/label_generation.py
 	$(BIN)/python benchmarks/classical_speed_accuracy.py
+	$(BIN)/python benchmarks/model_throughput.py
 
 clean:
 	rm -rf $(VENV) demo build *.egg-info

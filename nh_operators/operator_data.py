@@ -7,8 +7,10 @@ validation.
 * batches come from a per-epoch permutation drawn from ``(shuffle_seed, epoch)``
   instead of NumPy's global generator, so a run is reproducible and can resume at any
   epoch boundary;
-* a network with a ``kl`` attribute (VaRONet) gets β · kl as a second loss column
-  (DeepXDE sums the columns for the gradient and reports them separately);
+* a network with a ``kl`` attribute (VaRONet) gets β · kl / (2M) as a second loss
+  column (DeepXDE sums the columns for the gradient and reports them separately):
+  the paper's loss, Σ over the 2M outputs of the squared error plus β · KL, divided
+  by 2M to match DeepXDE's mean-squared data loss;
 * :meth:`validation_loss` evaluates the whole validation set in batches, while
   :meth:`test` (which DeepXDE evaluates in one forward) returns a small monitor batch.
 """
@@ -98,7 +100,9 @@ class OperatorData(dde.data.TripleCartesianProd):
         data = loss_fn(targets, outputs)
         kl = getattr(model.net, "kl", None)
         if hasattr(model.net, "kl") and kl is not None:
-            return [data, self.beta * kl]
+            # The paper's per-sample loss is Σ (error²) over the 2M outputs + β KL;
+            # DeepXDE's data loss is the mean, so the KL column is β KL / (2M).
+            return [data, self.beta * kl * (outputs.shape[0] / outputs.numel())]
         return [data]
 
     def losses_train(self, targets, outputs, loss_fn, inputs, model, aux=None):

@@ -8,9 +8,7 @@ per-epoch curve at fractional epochs. A DeepXDE callback ends every epoch with a
 batched validation pass, a progress-bar update, a history row and an atomic checkpoint.
 """
 
-import contextlib
 import dataclasses
-import io
 import logging
 import math
 import time
@@ -297,8 +295,7 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
         opt = torch.optim.AdamW(net.parameters(), lr=cfg["lr"], betas=tuple(cfg["betas"]),
                                 weight_decay=cfg["weight_decay"])
         steps = data_obj.steps_per_epoch(cfg["batch_size"])
-        with contextlib.redirect_stdout(io.StringIO()):
-            model.compile(opt, loss="mse", verbose=0)
+        _untimed(dde.Model.compile)(model, opt, loss="mse", verbose=0)
         sched_cls = SCHEDULERS[cfg["scheduler"]]
         scheduler = None if sched_cls is None else sched_cls(
             opt, cfg["upper_bound"], cfg["epochs"], cfg["infimum_lr"],
@@ -326,13 +323,21 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
     return net, run.history
 
 
+def _untimed(method):
+    """DeepXDE's method without its ``utils.timing`` wrapper, which prints "'train'
+    took ... s" to stdout whatever the verbosity."""
+    return getattr(method, "__wrapped__", method)
+
+
 def _fit(model, run, iterations):
     mixed = dde.config.mixed
     dde.config.mixed = bool(run.cfg["amp"])
     try:
-        with torch.device(run.device), contextlib.redirect_stdout(io.StringIO()):
-            model.train(iterations=iterations, batch_size=run.cfg["batch_size"],
-                        display_every=run.steps, callbacks=[_EpochEnd(run)], verbose=0)
+        with torch.device(run.device):
+            _untimed(dde.Model.train)(model, iterations=iterations,
+                                      batch_size=run.cfg["batch_size"],
+                                      display_every=run.steps,
+                                      callbacks=[_EpochEnd(run)], verbose=0)
     finally:
         dde.config.mixed = mixed
 

@@ -144,3 +144,26 @@ def test_predict_errors_are_named():
         nh.predict(net, np.zeros((2, 100)), np.zeros(3), batch_size=0)
     with pytest.raises(ValueError, match=r"V must have shape \(batch, 100\)"):
         nh.predict(net, np.zeros((2, 50)), np.zeros(3))
+
+
+def test_kl_column_is_the_papers_beta_term_per_output():
+    from nh_operators.operator_data import OperatorData
+
+    torch.manual_seed(0)
+    net = nh.build_model("varonet", "cpu", **TINY["varonet"]).eval()
+    V = np.random.default_rng(0).uniform(-2, 2, (4, 100)).astype(np.float32)
+    t = np.linspace(0, 2, 10, dtype=np.float32)[:, None]
+    y = np.zeros((4, 10, 2), np.float32)
+    data = OperatorData((V, t), y, (V, t), y, beta=0.5)
+    out = net((torch.as_tensor(V), torch.as_tensor(t)))
+
+    class Model:  # what DeepXDE hands to Data.losses
+        pass
+
+    Model.net = net
+    mse, kl = data.losses_test(torch.as_tensor(y), out, torch.nn.functional.mse_loss,
+                               None, Model)
+    assert mse.item() == pytest.approx((out**2).mean().item())
+    # Σ over the 20 outputs of error² + β KL, per sample, divided by 20
+    assert kl.item() == pytest.approx(0.5 * net.kl.item() / 20)
+    assert net.kl.item() > 0

@@ -19,8 +19,9 @@ class VaRONet(OperatorNet):
 
     After every forward, ``self.kl`` holds the batch mean of
     KL(N(μ, σ²) ‖ N(0, I)) = −½ Σ (1 + log σ² − μ² − σ²); the training data object
-    (:class:`nh_operators.train.OperatorData`) adds β · kl to the loss as its own
-    column.
+    (:class:`nh_operators.OperatorData`) adds β · kl / (2M) to DeepXDE's mean-squared
+    data loss as its own column, which is the paper's loss Σ (error²) + β · KL per
+    sample divided by its 2M outputs.
 
     Args:
         hidden_size: LSTM width H (paper: 512).

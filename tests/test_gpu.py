@@ -1,0 +1,49 @@
+"""CUDA checks (skipped without a GPU): same results as on the CPU, training, AMP."""
+
+import numpy as np
+import pytest
+import torch
+
+import nh_operators as nh
+from nh_operators.data import generate_dataset
+from nh_operators.models import mamba
+
+from test_models import TINY, inputs, tiny
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.mark.parametrize("name", sorted(nh.MODELS))
+def test_cuda_forward_matches_cpu(name):
+    net = tiny(name).eval()
+    x = inputs()
+    with torch.no_grad():
+        cpu = net(x)
+        gpu = net.cuda()(tuple(a.cuda() for a in x)).cpu()
+    assert torch.allclose(cpu, gpu, atol=1e-4)
+
+
+def test_default_device_is_left_alone():
+    assert torch.get_default_device().type == "cpu"
+
+
+def test_mamba_cuda_kernel_agrees_with_the_cpu_scan_when_installed():
+    block = mamba.Mamba(32).eval()
+    x = torch.randn(2, 50, 32)
+    with torch.no_grad():
+        cpu = block(x)
+        gpu = block.cuda()(x.cuda()).cpu()
+    if not mamba.cuda_kernel_available():
+        pytest.skip("mamba_ssm is not installed: the CPU scan ran on the GPU")
+    assert torch.allclose(cpu, gpu, atol=1e-4)
+
+
+@pytest.mark.parametrize("amp", [False, True])
+def test_training_on_cuda(amp, tmp_path):
+    data = generate_dataset(60, seed=1, progress=False)
+    config = nh.TrainConfig("traonet", arch=TINY["traonet"], epochs=2, batch_size=20,
+                            device="cuda", amp=amp)
+    net, history = nh.train(config, data, tmp_path, progress=False)
+    assert next(net.parameters()).is_cuda
+    assert np.isfinite(history[-1]["val_loss"])
+    assert torch.get_default_device().type == "cpu"
