@@ -316,10 +316,13 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
                 run.bar.close()
     if run.diverged is not None:
         epoch = (run.diverged - 1) // steps + 1
+        kept = (f"the checkpoint of epoch {run.history[-1]['epoch']} is kept in "
+                f"{str(out)!r}" if run.history else "no epoch finished, so there is no "
+                "checkpoint")
         raise TrainingDiverged(
             f"non-finite loss in epoch {epoch} (iteration {run.diverged}); training "
-            f"stopped. The checkpoint of epoch {run.epoch if run.history else 0} is "
-            f"kept in {str(out)!r}; try a smaller lr (now {cfg['lr']:g}).")
+            f"stopped, {kept}. Check the data for non-finite values, or try a smaller "
+            f"lr (now {cfg['lr']:g}).")
     return net, run.history
 
 

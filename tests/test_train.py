@@ -98,7 +98,7 @@ def test_non_finite_loss_stops_and_keeps_the_last_good_checkpoint(small, tmp_pat
             with torch.no_grad():
                 next(net.parameters()).fill_(float("nan"))
 
-    with pytest.raises(nh.TrainingDiverged, match="non-finite loss in epoch 3"):
+    with pytest.raises(nh.TrainingDiverged, match="non-finite loss in epoch 3.*checkpoint of epoch 2 is kept"):
         nh.train(cfg("deeponet"), small, tmp_path, progress=False, epoch_callback=poison)
     state = load_checkpoint(tmp_path)
     # the checkpoint was written before the callback poisoned the weights
@@ -167,3 +167,13 @@ def test_kl_column_is_the_papers_beta_term_per_output():
     # Σ over the 20 outputs of error² + β KL, per sample, divided by 20
     assert kl.item() == pytest.approx(0.5 * net.kl.item() / 20)
     assert net.kl.item() > 0
+
+
+def test_divergence_in_the_first_epoch_says_there_is_no_checkpoint(small, tmp_path):
+    import copy
+
+    bad = copy.copy(small)
+    bad.q = np.full_like(small.q, np.nan)
+    with pytest.raises(nh.TrainingDiverged, match=r"iteration 1\);.*no epoch finished"):
+        nh.train(cfg("deeponet"), bad, tmp_path, progress=False)
+    assert not (tmp_path / "checkpoint.pt").exists()
