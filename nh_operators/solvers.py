@@ -119,7 +119,7 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
 
     Example:
         >>> from nh_operators import PHYSICAL_POTENTIALS
-        >>> q, p = integrate(PHYSICAL_POTENTIALS["sho"], [0.0, 0.5], substeps=8)
+        >>> q, p = integrate(PHYSICAL_POTENTIALS["sho"], [0.0, 0.5], substeps=64)
         >>> round(float(q[1]), 6)  # exact: (1 - cos 2) / 2
         0.708073
     """

@@ -60,7 +60,7 @@ class BoundedPotentialSpace(FunctionSpace):
     Example:
         >>> space = BoundedPotentialSpace(seed=1)
         >>> feats = space.random(3)
-        >>> space.eval_batch(feats, np.array([[0.0], [1.0]])).tolist()
+        >>> np.round(space.eval_batch(feats, np.array([[0.0], [1.0]])), 12).tolist()
         [[2.0, 2.0], [2.0, 2.0], [2.0, 2.0]]
     """
 

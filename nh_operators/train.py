@@ -260,9 +260,9 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
             checkpoint stays in ``out``).
 
     Example:
-        >>> import nh_operators as nh  # doctest: +SKIP
+        >>> import nh_operators as nh
         >>> cfg = nh.TrainConfig("traonet", preset="cpu", epochs=5, seed=1)
-        >>> net, history = nh.train(cfg, "standard.h5", "runs/traonet")
+        >>> net, history = nh.train(cfg, "standard.h5", "runs/traonet")  # doctest: +SKIP
     """
     cfg = config.resolved()
     device = resolve_device(cfg["device"])
