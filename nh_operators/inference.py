@@ -3,7 +3,37 @@
 import numpy as np
 import torch
 
-__all__ = ["predict"]
+__all__ = ["predict", "batched_forward"]
+
+
+def batched_forward(net, V, t, batch_size):
+    """Yield ``(start, output)`` for consecutive batches of V, in eval mode, without a graph.
+
+    The one place that runs a network over many potentials: inputs are moved to the
+    network's device and dtype, ``net.eval()`` holds for the pass and the previous
+    mode is restored afterwards, and everything runs under ``torch.no_grad()``.
+
+    Args:
+        net: a network taking ``(V, t)``.
+        V: array or tensor (N, m).
+        t: array or tensor (M, 1).
+        batch_size: potentials per forward.
+
+    Yields:
+        (start index, output tensor of the batch V[start:start + batch_size]).
+    """
+    param = next(net.parameters())
+    t = torch.as_tensor(t, dtype=param.dtype, device=param.device)
+    was_training = net.training
+    net.eval()
+    try:
+        with torch.no_grad():
+            for start in range(0, len(V), batch_size):
+                v = torch.as_tensor(V[start:start + batch_size], dtype=param.dtype,
+                                    device=param.device)
+                yield start, net((v, t))
+    finally:
+        net.train(was_training)
 
 
 def predict(net, V, t, batch_size=1000):
@@ -44,18 +74,8 @@ def predict(net, V, t, batch_size=1000):
         raise ValueError("V and t must be finite")
     if int(batch_size) != batch_size or batch_size < 1:
         raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
-    param = next(net.parameters())
-    tt = torch.as_tensor(t[:, None], dtype=param.dtype, device=param.device)
-    was_training = net.training
-    net.eval()
     out = np.empty((len(V), len(t), 2))
-    try:
-        with torch.no_grad():
-            for start in range(0, len(V), batch_size):
-                v = torch.as_tensor(V[start:start + batch_size], dtype=param.dtype,
-                                    device=param.device)
-                out[start:start + len(v)] = net((v, tt)).double().cpu().numpy()
-    finally:
-        net.train(was_training)
+    for start, y in batched_forward(net, V, t[:, None], batch_size):
+        out[start:start + len(y)] = y.double().cpu().numpy()
     q, p = out[..., 0], out[..., 1]
     return (q[0], p[0]) if single else (q, p)

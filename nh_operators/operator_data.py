@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from ._backend import ensure_pytorch_backend
+from .inference import batched_forward
 
 dde = ensure_pytorch_backend()
 
@@ -125,22 +126,11 @@ class OperatorData(dde.data.TripleCartesianProd):
         Returns:
             float: mean over samples of (L_q + L_p) / 2 (= the MSE over all entries).
         """
-        param = next(net.parameters())
-        was_training = net.training
-        net.eval()
-        total, count = 0.0, 0
         V, t = self.test_x
-        t = torch.as_tensor(t, device=param.device, dtype=param.dtype)
-        try:
-            with torch.no_grad():
-                for start in range(0, len(V), batch_size):
-                    v = torch.as_tensor(V[start:start + batch_size], device=param.device,
-                                        dtype=param.dtype)
-                    y = torch.as_tensor(self.test_y[start:start + batch_size],
-                                        device=param.device, dtype=param.dtype)
-                    err = (net((v, t)) - y) ** 2
-                    total += float(err.mean(dim=tuple(range(1, err.ndim))).sum())
-                    count += len(v)
-        finally:
-            net.train(was_training)
-        return total / count
+        total = 0.0
+        for start, out in batched_forward(net, V, t, batch_size):
+            y = torch.as_tensor(self.test_y[start:start + len(out)], device=out.device,
+                                dtype=out.dtype)
+            err = (out - y) ** 2
+            total += float(err.mean(dim=tuple(range(1, err.ndim))).sum())
+        return total / len(V)
