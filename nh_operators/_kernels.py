@@ -15,6 +15,11 @@ import numpy as np
 from .bspline import Q_OFFSET, V_OFFSET
 
 _JIT = dict(nogil=True, cache=True)
+# Kernels that take another compiled function as an argument are not cached: numba keys
+# their cache entries by the dispatcher object of this process, so entries never match
+# again, the index grows with every process, and saving it eventually fails with
+# "ReferenceError: underlying object has vanished" (numba 0.6x). They compile in ~1 s.
+_JIT_FN_ARG = dict(nogil=True, cache=False)
 
 
 @numba.njit(**_JIT)
@@ -140,7 +145,7 @@ def grid_force(par, x):
 # ------------------------------------------------------------- vectorised evaluation
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **_JIT_FN_ARG)
 def evaluate(fn, pars, xs, out):
     """out[i, k] = fn(pars[i], xs[k]) for every potential i and point k."""
     for i in numba.prange(pars.shape[0]):
@@ -159,7 +164,7 @@ def _hermite(theta, h, y0, d0, y1, d1):
             + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * d1)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**_JIT_FN_ARG)
 def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
     """One trajectory from rest at q = 0 with ``nsteps`` steps of size ``h``.
 
@@ -209,7 +214,7 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
             k += 1
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **_JIT_FN_ARG)
 def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op):
     for i in numba.prange(pars.shape[0]):
         _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[i], op[i])
