@@ -6,6 +6,11 @@
 - :func:`paper_rk4`: the paper's RK4 row, rebuilt correctly (one RK4 step per output
   interval, force from a PCHIP interpolant) so that it can be shown for what it is.
 - :func:`reference_solve`: adaptive high-accuracy solve used for truth.
+
+The fixed-step solvers warn with :class:`ResolutionWarning` when the step is too coarse
+for the potential's curvature (:data:`RESOLUTION_FRACTION`), when the energy has drifted
+by :data:`ENERGY_DRIFT_TOL` at the last query time (sensor splines and formulas), or when
+a formula's force jumps (a kink: fixed steps are then first order).
 """
 
 import numpy as np
@@ -15,8 +20,12 @@ from scipy import interpolate
 from . import _kernels
 from ._constants import SENSORS, TIMES, V0
 from .potentials import BoundedPotential, check_bounded
+from .resolution import (ENERGY_DRIFT_TOL, RESOLUTION_FRACTION, STABILITY_LIMITS,
+                         ResolutionWarning, check_energy, check_formula,
+                         check_resolution_of, spline_curvature, spline_drift)
 
-__all__ = ["METHODS", "ORDERS", "integrate", "integrate_sensors", "paper_rk4", "reference_solve"]
+__all__ = ["METHODS", "ORDERS", "RESOLUTION_FRACTION", "STABILITY_LIMITS", "ENERGY_DRIFT_TOL",
+           "ResolutionWarning", "integrate", "integrate_sensors", "paper_rk4", "reference_solve"]
 
 
 def _triple_jump(weights, order):
@@ -37,8 +46,6 @@ _Y8 = _triple_jump(_Y6, 8)
 METHODS = {"rk4": None, "verlet": _VERLET, "yoshida4": _Y4, "yoshida6": _Y6, "yoshida8": _Y8}
 #: Convergence order of each method on smooth potentials.
 ORDERS = {"rk4": 4, "verlet": 2, "yoshida4": 4, "yoshida6": 6, "yoshida8": 8}
-
-
 def _check_times(t):
     t = np.asarray(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[1] == 1:
@@ -91,7 +98,8 @@ def _run_fixed(force, params, t, method, substeps, interval):
     return q, p
 
 
-def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
+def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
+              check_resolution=True):
     """Integrate Hamilton's equations with a fixed-step method on an exact potential.
 
     The step is ``interval / substeps``, adjusted down so that a whole number of steps
@@ -109,6 +117,8 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
         method: ``"rk4"``, ``"verlet"``, ``"yoshida4"``, ``"yoshida6"`` or ``"yoshida8"``.
         substeps: steps per output interval (a positive integer).
         interval: the output interval (see above).
+        check_resolution: warn when the step is too coarse (a B-spline's curvature is
+            probed at the sensors, a third of the cost of a one-substep solve).
 
     Returns:
         (q, p): float64 arrays of shape (M,) for one potential, (N, M) for a batch.
@@ -116,6 +126,12 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
     Raises:
         ValueError: for an unknown method, bad times or substeps.
         TypeError: if the potential has no ``dV``.
+
+    Warns:
+        ResolutionWarning: when h·sqrt(max |V''|) exceeds :data:`RESOLUTION_FRACTION` of
+            the method's stability limit (the message names the substeps that suffice);
+            for a formula, also when its force jumps (a kink) or its energy drifts by
+            more than :data:`ENERGY_DRIFT_TOL`.
 
     Example:
         >>> from nh_operators import PHYSICAL_POTENTIALS
@@ -126,15 +142,21 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
     t = _check_times(t)
     if isinstance(potential, BoundedPotential):
         q, p = _run_fixed(_kernels.bspline_force, potential.params, t, method, substeps, interval)
+        if check_resolution:
+            curvature = np.abs(potential.d2V(SENSORS)).reshape(-1, SENSORS.size).max(axis=1)
+            check_resolution_of(curvature, t, method, substeps, interval, potential.batched)
         return (q, p) if potential.batched else (q[0], p[0])
     if isinstance(potential, (list, tuple)):
-        pairs = [integrate(pot, t, method, substeps, interval=interval) for pot in potential]
+        pairs = [integrate(pot, t, method, substeps, interval=interval,
+                           check_resolution=check_resolution) for pot in potential]
         return np.stack([a for a, _ in pairs]), np.stack([b for _, b in pairs])
     if not hasattr(potential, "dV"):
         raise TypeError(
             "potential must be a BoundedPotential or have a vectorised dV(q) method; for "
             "values at the sensors use integrate_sensors"
         )
+    if check_resolution:
+        check_formula(potential, t, method, substeps, interval)
     rk4, weights = _method(method)
     order, ts, h, nsteps = _step_grid(t, substeps, interval)
     oq = np.empty(ts.size)
@@ -148,6 +170,11 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None):
     p = np.empty_like(op)
     q[order] = oq
     p[order] = op
+    if check_resolution and hasattr(potential, "V"):
+        with np.errstate(all="ignore"):
+            drift = abs(0.5 * op[-1] ** 2 + float(potential.V(oq[-1])) - V0)
+        check_energy(np.array([drift]), t, method, substeps, "formula", False,
+                      getattr(potential, "name", "V"))
     return q, p
 
 
@@ -175,7 +202,7 @@ def sensor_spline_params(V, interpolation="cubic"):
 
 
 def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic", *,
-                      interval=None):
+                      interval=None, check_resolution=True):
     """Integrate with the force from a spline of the sensor values: the honest baseline.
 
     A neural operator sees V only at the 100 :data:`SENSORS`; this solver uses the same
@@ -186,12 +213,19 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
         V: sensor values, shape (100,) or (N, 100); checked with :func:`check_bounded`.
         t, method, substeps, interval: as in :func:`integrate`.
         interpolation: ``"cubic"`` or ``"pchip"``.
+        check_resolution: warn when the step is too coarse (negligible cost).
 
     Returns:
         (q, p) of shape (M,) or (N, M).
 
     Raises:
         ValueError: if V breaks the bounded conditions or has the wrong shape.
+
+    Warns:
+        ResolutionWarning: naming the rows where h·sqrt(max |V''|) of the spline
+            exceeds :data:`RESOLUTION_FRACTION` of the method's stability limit, or the
+            energy drifts by more than :data:`ENERGY_DRIFT_TOL`, and the substeps that
+            suffice. A feature narrower than the sensor spacing is invisible to the spline.
 
     Example:
         >>> V = 8 * (SENSORS - 0.5) ** 2
@@ -203,7 +237,13 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
     V = check_bounded(V)
     single = V.ndim == 1
     params = sensor_spline_params(np.atleast_2d(V), interpolation)
+    if check_resolution:
+        check_resolution_of(spline_curvature(params), t, method, substeps, interval, not single)
     q, p = _run_fixed(_kernels.grid_force, params, t, method, substeps, interval)
+    if check_resolution:
+        last = int(np.argmax(t))
+        check_energy(spline_drift(params, q[:, last], p[:, last]), t, method, substeps,
+                      interpolation, not single)
     return (q[0], p[0]) if single else (q, p)
 
 
