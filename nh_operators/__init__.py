@@ -26,6 +26,10 @@ from .models import MODELS, build_model, count_parameters  # noqa: E402
 from .operator_data import OperatorData  # noqa: E402
 from .schedulers import ExpHyperbolicLR, HyperbolicLR  # noqa: E402
 from .train import TrainConfig, TrainingDiverged, train  # noqa: E402
+from .resolution import ResolutionWarning  # noqa: E402
+from .methods import CLASSICAL_METHODS, ClassicalMethod, NeuralMethod  # noqa: E402
+from .report import EvaluationSettings, evaluate_methods  # noqa: E402
+from .stability import OutOfDomainWarning, domain_violations, extreme_potentials  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -53,4 +57,13 @@ __all__ = [
     "train",
     "load_model",
     "predict",
+    "ResolutionWarning",
+    "OutOfDomainWarning",
+    "domain_violations",
+    "extreme_potentials",
+    "CLASSICAL_METHODS",
+    "ClassicalMethod",
+    "NeuralMethod",
+    "EvaluationSettings",
+    "evaluate_methods",
 ]

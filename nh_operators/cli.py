@@ -1,4 +1,7 @@
-"""Command line: ``nh-operators generate | demo | train`` (parse, then call the library)."""
+"""Command line: ``nh-operators generate | demo | train | evaluate | benchmark``.
+
+Thin: parse the arguments, then call the library.
+"""
 
 import argparse
 import os
@@ -81,6 +84,69 @@ def _train(args):
           f"run directory {args.out}")
 
 
+def _settings(args):
+    from .report import EvaluationSettings
+
+    return EvaluationSettings(n_unbatched=args.unbatched_size, n_single=args.n_single,
+                              n_batched=args.batched_size, repeats=args.repeats,
+                              timing=not args.no_timing)
+
+
+def _classical(args, default):
+    if args.classical is None:
+        return default
+    return [] if args.classical == ["none"] else args.classical
+
+
+def _evaluate(args):
+    from .methods import EVALUATE_BASELINES
+    from .study import evaluate_report
+
+    path, results = evaluate_report(
+        args.runs or [], args.test, args.out, classical=_classical(args, EVALUATE_BASELINES),
+        device=args.device, settings=_settings(args), stability=not args.no_stability,
+        figures=not args.no_figures, progress=not args.quiet, argv=args.argv)
+    from .report_files import test_table
+
+    print(test_table(results))
+    print(f"\nreport: {path} (and report.json, figures, in {args.out})")
+
+
+def _benchmark(args):
+    from .study import benchmark_report, statements
+    from .workprecision import work_precision_markdown
+
+    path, results = benchmark_report(
+        args.test, args.out, args.runs or [], classical=_classical(args, None),
+        device=args.device, settings=_settings(args), figures=not args.no_figures,
+        progress=not args.quiet, argv=args.argv)
+    print(work_precision_markdown(results).split("\n\n")[0])
+    print("\n" + "\n".join(statements(results)))
+    print(f"\nwork precision: {path}")
+
+
+def _add_evaluation_options(parser):
+    parser.add_argument("--test", required=True,
+                        help="labelled test set .h5 (nh-operators generate --preset test)")
+    parser.add_argument("--run", action="append", metavar="RUN_DIR", dest="runs",
+                        help="run directory of a trained network, repeatable")
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--classical", nargs="+", metavar="NAME",
+                        help="classical baselines by name (see nh_operators.methods."
+                             "CLASSICAL_METHODS), or 'none'")
+    parser.add_argument("--device", default="cpu", help="device for the networks (cpu, cuda)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed calls, median kept")
+    parser.add_argument("--n-single", type=int, default=20,
+                        help="potentials timed one at a time (batch 1)")
+    parser.add_argument("--batched-size", type=int, default=1000,
+                        help="potentials in the batched timing call")
+    parser.add_argument("--unbatched-size", type=int, default=200,
+                        help="test potentials for one-at-a-time solvers (DOP853)")
+    parser.add_argument("--no-timing", action="store_true", help="skip the timings")
+    parser.add_argument("--no-figures", action="store_true", help="skip the figures")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def build_parser():
     parser = argparse.ArgumentParser(prog="nh-operators", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -119,11 +185,21 @@ def build_parser():
     tr.add_argument("--amp", action="store_true", help="float16 autocast (CUDA only)")
     tr.add_argument("--quiet", action="store_true", help="no progress bar")
     tr.set_defaults(run=_train)
+    ev = sub.add_parser("evaluate", help="score runs and classical baselines: report.md, "
+                        "report.json, figures")
+    _add_evaluation_options(ev)
+    ev.add_argument("--no-stability", action="store_true",
+                    help="skip the stability-at-the-extremes section")
+    ev.set_defaults(run=_evaluate)
+    be = sub.add_parser("benchmark", help="the speed/accuracy (work-precision) study")
+    _add_evaluation_options(be)
+    be.set_defaults(run=_benchmark)
     return parser
 
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
     from .train import TrainingDiverged
 
     try:

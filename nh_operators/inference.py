@@ -59,11 +59,11 @@ def predict(net, V, t, batch_size=1000):
         >>> q.shape
         (3, 5)
     """
-    V = np.asarray(V, dtype=np.float64)
+    V = np.array(V, dtype=np.float64)  # a copy: read-only inputs (HDF5, views) are fine
     single = V.ndim == 1
     if single:
         V = V[None]
-    t = np.asarray(t, dtype=np.float64)
+    t = np.array(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[1] == 1:
         t = t[:, 0]
     if V.ndim != 2:

@@ -1,0 +1,259 @@
+"""Methods compared side by side: trained networks and classical solvers, one interface.
+
+A *method* maps sensor values V (N, 100) and query times t (M,) to (q, p), each (N, M),
+exactly the information a neural operator has. :class:`ClassicalMethod` wraps a solver
+on the sensors; :class:`NeuralMethod` wraps a trained network. Evaluation, timing and
+the speed/accuracy study (:mod:`nh_operators.report`) take any mapping name → method.
+"""
+
+import abc
+import warnings
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
+
+from ._constants import SENSORS
+from .solvers import integrate_sensors, paper_rk4
+
+__all__ = ["Method", "ClassicalMethod", "NeuralMethod", "CLASSICAL_METHODS",
+           "EVALUATE_BASELINES", "classical_methods", "dop853_sensors"]
+
+
+class Method(abc.ABC):
+    """Abstract: ``method(V, t) -> (q, p)`` with a name, a kind and a device.
+
+    Attributes:
+        name: key in tables and reports.
+        kind: ``"classical"`` or ``"neural"``.
+        family: methods of one family differ by one knob (substeps, tolerance) and are
+            joined by a line in the work-precision figure.
+        device: where it runs, e.g. ``"cpu"`` or ``"cuda:0"``.
+        batched: False when the method solves one trajectory at a time in Python (then
+            evaluations may use a subset of a large test set).
+    """
+
+    name: str
+    kind: str
+    family: str
+    device: str = "cpu"
+    batched: bool = True
+
+    @abc.abstractmethod
+    def __call__(self, V, t):
+        """Args: V (N, 100) float64 sensor values; t (M,) times. Returns (q, p), (N, M) each."""
+
+    def synchronize(self):
+        """Wait for queued device work (a no-op on a CPU); called around timed sections."""
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self.name!r})"
+
+
+class ClassicalMethod(Method):
+    """A classical solver on the sensor values (final).
+
+    Args:
+        name: its key.
+        run: callable ``(V (N, 100), t (M,)) -> (q, p)``.
+        family: see :class:`Method`.
+        batched: whether ``run`` handles a batch at once (compiled) or loops in Python.
+        description: one line for reports.
+
+    Example:
+        >>> import nh_operators as nh
+        >>> rk4 = CLASSICAL_METHODS["rk4_sensors_4"]
+        >>> q, p = rk4(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None], nh.TIMES)
+        >>> q.shape
+        (1, 100)
+    """
+
+    kind = "classical"
+
+    def __init__(self, name, run, family, *, batched=True, description=""):
+        self.name = name
+        self._run = run
+        self.family = family
+        self.batched = batched
+        self.description = description
+
+    def __call__(self, V, t):
+        return self._run(np.asarray(V, dtype=np.float64), np.asarray(t, dtype=np.float64))
+
+
+class NeuralMethod(Method):
+    """A trained network as a method (final).
+
+    Args:
+        net: a network of :data:`nh_operators.MODELS` (or any DeepXDE network with the
+            ``(V, t) -> (B, M, 2)`` contract).
+        name: its key (default: the class name, lower case).
+        batch_size: potentials per forward pass.
+        domain_check: warn (:class:`~nh_operators.stability.OutOfDomainWarning`) when
+            an input lies outside the distribution the generator produces.
+
+    Example:
+        >>> import nh_operators as nh
+        >>> m = NeuralMethod(nh.build_model("deeponet", preset="cpu"), "deeponet")
+        >>> m.kind, m.device
+        ('neural', 'cpu')
+    """
+
+    kind = "neural"
+
+    def __init__(self, net, name=None, *, batch_size=1000, domain_check=True):
+        self.net = net
+        self.name = name or type(net).__name__.lower()
+        self.family = self.name
+        self.batch_size = batch_size
+        self.domain_check = domain_check
+        self.device = str(next(net.parameters()).device)
+
+    @classmethod
+    def from_run(cls, run_dir, *, device="cpu", name=None, batch_size=1000):
+        """Load a run directory written by :func:`nh_operators.train`.
+
+        Args:
+            run_dir: the run directory (or its checkpoint file).
+            device: ``"cpu"``, ``"cuda"``, ``"cuda:N"``.
+            name: key (default: the run's model name, e.g. ``"traonet"``).
+            batch_size: potentials per forward pass.
+
+        Returns:
+            NeuralMethod with ``config`` (the run's config dict) and ``run_dir`` set.
+
+        Raises:
+            FileNotFoundError, ValueError: as :func:`nh_operators.load_model`.
+        """
+        from .checkpoint import load_model
+
+        net, config = load_model(run_dir, device=device)
+        method = cls(net, name or config["model"], batch_size=batch_size)
+        method.config = config
+        method.run_dir = str(run_dir)
+        return method
+
+    def __call__(self, V, t):
+        from .inference import predict
+
+        V = np.asarray(V, dtype=np.float64)
+        if self.domain_check:
+            _warn_out_of_domain(self.name, V)
+        return predict(self.net, np.atleast_2d(V), t, batch_size=self.batch_size)
+
+    def synchronize(self):
+        if self.device.startswith("cuda"):
+            import torch
+
+            torch.cuda.synchronize(self.device)
+
+
+def _warn_out_of_domain(name, V):
+    from .stability import OutOfDomainWarning, domain_violations
+
+    reasons = domain_violations(np.atleast_2d(V))
+    if reasons:
+        warnings.warn(f"{name}: input outside the training distribution, the prediction "
+                      f"may be inaccurate: {'; '.join(reasons)}", OutOfDomainWarning,
+                      stacklevel=3)
+
+
+def dop853_sensors(V, t, tol):
+    """scipy's adaptive DOP853 at rtol = atol = ``tol`` on the not-a-knot spline of V.
+
+    One trajectory at a time in Python (scipy), so milliseconds per trajectory.
+
+    Args:
+        V: sensor values (N, 100).
+        t: query times (M,), ≥ 0.
+        tol: relative and absolute tolerance.
+
+    Returns:
+        (q, p), each (N, M).
+
+    Raises:
+        RuntimeError: if scipy reports a failure (naming the sample).
+
+    Example:
+        >>> import nh_operators as nh
+        >>> V = nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None]
+        >>> q, p = dop853_sensors(V, np.array([0.0, np.pi / 4]), 1e-10)
+        >>> round(float(q[0, 1]), 6)  # exact: (1 - cos π) / 2
+        1.0
+    """
+    V = np.atleast_2d(np.asarray(V, dtype=np.float64))
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    q = np.empty((V.shape[0], t.size))
+    p = np.empty_like(q)
+    for i, v in enumerate(V):
+        force = CubicSpline(SENSORS, v, bc_type="not-a-knot").derivative()
+        sol = solve_ivp(lambda _, y, f=force: (y[1], -f(y[0])), (0.0, max(ts[-1], 1e-300)),
+                        (0.0, 0.0), method="DOP853", t_eval=ts, rtol=tol, atol=tol)
+        if not sol.success:
+            raise RuntimeError(f"DOP853 failed on sample {i}: {sol.message}")
+        q[i, order], p[i, order] = sol.y
+    return q, p
+
+
+def _fixed(method, substeps):
+    return lambda V, t: integrate_sensors(V, t, method, substeps)
+
+
+def _build_registry():
+    reg = {}
+    plural = {1: ""}
+    for method, substeps in ([("rk4", k) for k in (1, 2, 4, 8, 16)]
+                             + [("verlet", 4), ("verlet", 16), ("yoshida4", 4),
+                                ("yoshida6", 2), ("yoshida8", 1), ("yoshida8", 2),
+                                ("yoshida8", 4)]):
+        name = f"{method}_sensors_{substeps}"
+        reg[name] = ClassicalMethod(
+            name, _fixed(method, substeps), f"{method}_sensors",
+            description=f"{method}, {substeps} step{plural.get(substeps, 's')} per output "
+                        "interval, force from the cubic spline of the sensors")
+    reg["paper_rk4"] = ClassicalMethod(
+        "paper_rk4", paper_rk4, "paper_rk4",
+        description="the paper's RK4 row done correctly: 1 step per interval, PCHIP force")
+    for tol in (1e-6, 1e-8, 1e-10, 1e-12):
+        name = f"dop853_sensors_{tol:g}"
+        reg[name] = ClassicalMethod(
+            name, lambda V, t, tol=tol: dop853_sensors(V, t, tol), "dop853_sensors",
+            batched=False, description=f"scipy DOP853, rtol = atol = {tol:g}, cubic spline "
+                                       "of the sensors, one trajectory at a time")
+    return reg
+
+
+#: Every classical baseline, by name: fixed-step RK4, Verlet and Yoshida 4/6/8 on the
+#: sensor spline, the paper-replica RK4, and DOP853 at four tolerances.
+CLASSICAL_METHODS = _build_registry()
+
+#: The baselines ``nh-operators evaluate`` reports next to the networks.
+EVALUATE_BASELINES = ("rk4_sensors_1", "rk4_sensors_4", "verlet_sensors_16",
+                      "yoshida4_sensors_4", "yoshida8_sensors_2", "paper_rk4")
+
+
+def classical_methods(names=None):
+    """The classical methods named (default: all of :data:`CLASSICAL_METHODS`).
+
+    Args:
+        names: iterable of keys of :data:`CLASSICAL_METHODS`, or None.
+
+    Returns:
+        dict name -> :class:`ClassicalMethod`, in the given order.
+
+    Raises:
+        ValueError: for an unknown name (listing the known ones).
+
+    Example:
+        >>> list(classical_methods(["paper_rk4"]))
+        ['paper_rk4']
+    """
+    if names is None:
+        return dict(CLASSICAL_METHODS)
+    unknown = [n for n in names if n not in CLASSICAL_METHODS]
+    if unknown:
+        raise ValueError(f"unknown classical method(s) {unknown}; choose from "
+                         f"{sorted(CLASSICAL_METHODS)}")
+    return {n: CLASSICAL_METHODS[n] for n in names}

@@ -1,0 +1,100 @@
+import numpy as np
+import pytest
+import torch
+
+import nh_operators as nh
+from nh_operators.methods import (CLASSICAL_METHODS, EVALUATE_BASELINES, ClassicalMethod,
+                                  Method, NeuralMethod, classical_methods, dop853_sensors)
+from test_models import tiny
+
+SHO = nh.PHYSICAL_POTENTIALS["sho"]
+
+
+def sho_sensors(n=1):
+    return np.tile(SHO.V(nh.SENSORS), (n, 1))
+
+
+def test_registry_names_families_and_kinds():
+    assert set(EVALUATE_BASELINES) <= set(CLASSICAL_METHODS)
+    for name, m in CLASSICAL_METHODS.items():
+        assert m.name == name and m.kind == "classical" and name.startswith(m.family)
+        assert m.description
+    assert [m.batched for m in CLASSICAL_METHODS.values()].count(False) == 4  # DOP853
+    assert {"rk4_sensors_1", "rk4_sensors_16", "verlet_sensors_16", "yoshida8_sensors_4",
+            "paper_rk4", "dop853_sensors_1e-12"} <= set(CLASSICAL_METHODS)
+
+
+@pytest.mark.parametrize("name,bound", [("rk4_sensors_4", 1e-15), ("yoshida8_sensors_2", 1e-12),
+                                        ("verlet_sensors_16", 1e-5), ("paper_rk4", 1e-6),
+                                        ("dop853_sensors_1e-10", 1e-15)])
+def test_classical_methods_on_the_sho_against_the_exact_solution(name, bound):
+    q, p = CLASSICAL_METHODS[name](sho_sensors(2), nh.TIMES)
+    qe, pe = SHO.exact(nh.TIMES)
+    assert q.shape == p.shape == (2, 100) and q.dtype == np.float64
+    loss = 0.5 * (np.mean((q - qe) ** 2, axis=1) + np.mean((p - pe) ** 2, axis=1))
+    assert np.all(loss < bound)
+    np.testing.assert_array_equal(q[0], q[1])
+
+
+def test_dop853_keeps_the_order_of_unsorted_times_and_converges():
+    t = np.array([1.5, 0.25, 0.0, 1.0])
+    q, p = dop853_sensors(sho_sensors(), t, 1e-11)
+    qe, pe = SHO.exact(t)
+    assert np.max(np.abs(q[0] - qe)) < 1e-8 and np.max(np.abs(p[0] - pe)) < 1e-8
+    q6, _ = dop853_sensors(sho_sensors(), t, 1e-5)
+    assert np.max(np.abs(q6[0] - qe)) > np.max(np.abs(q[0] - qe))
+
+
+def test_classical_methods_selection_and_unknown_names():
+    assert list(classical_methods(["paper_rk4", "rk4_sensors_1"])) == ["paper_rk4",
+                                                                        "rk4_sensors_1"]
+    assert classical_methods([]) == {}
+    with pytest.raises(ValueError, match="unknown classical method.*'rk5'.*choose from"):
+        classical_methods(["rk5"])
+
+
+def test_method_is_abstract_and_classical_method_passes_float64():
+    with pytest.raises(TypeError):
+        Method()
+    seen = {}
+
+    def run(V, t):
+        seen["dtypes"] = V.dtype, t.dtype
+        return V[:, :1] * t, V[:, :1] * t
+
+    m = ClassicalMethod("x", run, "x")
+    m(np.zeros((2, 100), dtype=np.float32), [0.0, 1.0])
+    assert seen["dtypes"] == (np.float64, np.float64)
+
+
+def test_neural_method_equals_predict_and_reports_its_device():
+    net = tiny("deeponet")
+    m = NeuralMethod(net, "tiny", batch_size=3)
+    V = sho_sensors(5)
+    q, p = m(V, nh.TIMES[:7])
+    qr, pr = nh.predict(net, V, nh.TIMES[:7])
+    # float32 results may differ in the last bits between batch sizes (BLAS blocking)
+    np.testing.assert_allclose(q, qr, rtol=0, atol=1e-5)
+    np.testing.assert_allclose(p, pr, rtol=0, atol=1e-5)
+    assert (m.kind, m.device, m.family) == ("neural", "cpu", "tiny")
+    assert NeuralMethod(net).name == type(net).__name__.lower()
+
+
+def test_neural_method_from_run(tmp_path):
+    from nh_operators.data import generate_dataset
+
+    data = generate_dataset(20, 4, tmp_path / "d.h5", progress=False)
+    cfg = nh.TrainConfig("deeponet", preset="cpu", arch={"hidden_size": 8, "branches": 2,
+                                                          "hidden_layers": 1},
+                         epochs=1, seed=0, batch_size=8)
+    net, _ = nh.train(cfg, tmp_path / "d.h5", tmp_path / "run", progress=False)
+    m = NeuralMethod.from_run(tmp_path / "run")
+    assert m.name == "deeponet" and m.config["epochs"] == 1
+    assert m.run_dir == str(tmp_path / "run")
+    q, _ = m(data.V[:4], data.t)
+    with torch.no_grad():
+        direct = net((torch.as_tensor(data.V[:4], dtype=torch.float32),
+                      torch.as_tensor(data.t[:, None], dtype=torch.float32)))
+    np.testing.assert_allclose(q, direct[..., 0].double().numpy(), rtol=0, atol=1e-6)
+    with pytest.raises(FileNotFoundError):
+        NeuralMethod.from_run(tmp_path / "missing")
