@@ -31,12 +31,10 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
 
-from nh_operators._constants import SENSORS
 from nh_operators.data import PRESETS, generate_dataset, load_dataset
 from nh_operators.evaluate import loss_per_sample
+from nh_operators.methods import dop853_sensors
 from nh_operators.solvers import integrate, integrate_sensors, paper_rk4
 
 GOAL_RK4_LOSS = 1e-10
@@ -69,20 +67,6 @@ class Row:
     us_per_trajectory: float
     mean_loss: float
     median_loss: float
-
-
-def dop853_sensors(V, t, tol):
-    """scipy DOP853 at rtol = atol = tol, force from the not-a-knot spline of each V row."""
-    q = np.empty((V.shape[0], t.size))
-    p = np.empty_like(q)
-    for i, v in enumerate(V):
-        force = CubicSpline(SENSORS, v, bc_type="not-a-knot").derivative()
-        sol = solve_ivp(lambda _, y, f=force: (y[1], -f(y[0])), (0.0, t[-1]), (0.0, 0.0),
-                        method="DOP853", t_eval=t, rtol=tol, atol=tol)
-        if not sol.success:
-            raise RuntimeError(f"DOP853 failed on sample {i}: {sol.message}")
-        q[i], p[i] = sol.y
-    return q, p
 
 
 def build_methods():
