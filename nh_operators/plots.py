@@ -288,7 +288,8 @@ def plot_work_precision(rows, *, title=None, x="seconds_per_trajectory"):
 
     Classical methods of one family (e.g. an RK4 at 1, 4, 16 steps) form one line,
     their points joined in order of cost; each neural model is one large marker.
-    Every point is annotated with its name. Both axes are logarithmic.
+    A classical point is annotated with what its name adds to its family's (``4`` for
+    ``rk4_sensors_4``), a network with its name. Both axes are logarithmic.
 
     Args:
         rows: list of dicts with keys ``name`` (str), ``kind`` (``"neural"`` or
@@ -342,8 +343,10 @@ def plot_work_precision(rows, *, title=None, x="seconds_per_trajectory"):
         xs = transform(np.array([float(r["seconds"]) for r in members]))
         ys = np.array([float(r["mean_L_tot"]) for r in members])
         ax.plot(xs, ys, "o-", color=f"C{i % 10}", markersize=4, linewidth=1.2, label=family)
-        for r, xi, yi in zip(members, xs, ys):
-            note(str(r["name"]), xi, yi)
+        for r, xi, yi in zip(members, xs, ys):  # the knob only: "4" for rk4_sensors_4
+            name = str(r["name"])
+            note(name[len(family) + 1:] if name.startswith(family + "_") else name, xi, yi,
+                 color=f"C{i % 10}")
     neural = [r for r in rows if r["kind"] == "neural"]
     for i, row in enumerate(neural):
         xi, yi = transform(float(row["seconds"])), float(row["mean_L_tot"])

@@ -104,8 +104,10 @@ def evaluate_method(method, dataset, settings=None):
     timing = None
     if settings.timing:
         n_time = min(settings.n_batched, n)
-        timing = seconds_per_trajectory(method, V[:n_time], t, n_single=settings.n_single,
-                                        repeats=settings.repeats, batched=method.batched)
+        with warnings.catch_warnings():  # already recorded above, once
+            warnings.simplefilter("ignore")
+            timing = seconds_per_trajectory(method, V[:n_time], t, n_single=settings.n_single,
+                                            repeats=settings.repeats, batched=method.batched)
         if not method.batched:  # a Python loop: its batch is the evaluation call itself
             timing.update(batched=seconds / n, batched_size=int(n), batched_repeats=1)
     info = device_info(method.device)

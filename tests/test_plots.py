@@ -226,3 +226,14 @@ def test_physical_potentials_grid():
     assert fig.axes[-1].get_ylabel() == "t"
     with pytest.raises(ValueError, match="no potential for nope"):
         plot_physical_potentials(PHYSICAL_POTENTIALS, {"nope": traj["sho"]})
+
+
+def test_work_precision_labels_a_classical_point_by_its_knob():
+    rows = [{"name": f"rk4_sensors_{k}", "kind": "classical", "family": "rk4_sensors",
+             "seconds": s, "mean_L_tot": loss}
+            for k, s, loss in ((1, 1e-5, 1e-4), (16, 4e-5, 1e-9))]
+    rows.append({"name": "traonet", "kind": "neural", "family": "traonet", "seconds": 1e-3,
+                 "mean_L_tot": 1e-2})
+    (ax,) = plot_work_precision(rows).axes
+    assert {t.get_text() for t in ax.texts} == {"1", "16", "traonet"}
+    assert ax.lines[0].get_label() == "rk4_sensors"
