@@ -95,3 +95,17 @@ def test_bad_sensor_values():
         integrate_sensors(V)
     with pytest.raises(ValueError, match=re.escape("interpolation must be 'cubic' or 'pchip'")):
         integrate_sensors(8.0 * (SENSORS - 0.5) ** 2, interpolation="linear")
+
+
+def test_compiled_not_a_knot_spline_equals_scipys_and_ignores_the_batch(pots):
+    from nh_operators.solvers import _piece_coefficients, sensor_spline_params
+
+    V = np.vstack([pots.V(SENSORS), 8.0 * (SENSORS - 0.5) ** 2, np.sin(7 * SENSORS) + 1])
+    ours = sensor_spline_params(V)
+    scipy_c = CubicSpline(SENSORS, V, axis=1, bc_type="not-a-knot").c
+    np.testing.assert_allclose(ours, _piece_coefficients(scipy_c), rtol=0, atol=1e-13)
+    for i in range(len(V)):  # row by row: the same bits at batch 1 and in a batch
+        np.testing.assert_array_equal(sensor_spline_params(V[i:i + 1])[0], ours[i])
+    # a cubic is its own not-a-knot spline: a3 per piece = the cubic's s³ coefficient
+    cubic = sensor_spline_params((SENSORS**3)[None])[0].reshape(99, 4)
+    np.testing.assert_allclose(cubic[:, 3], (1 / 99) ** 3, rtol=1e-9)
