@@ -105,7 +105,8 @@ def _evaluate(args):
     path, results = evaluate_report(
         args.runs or [], args.test, args.out, classical=_classical(args, EVALUATE_BASELINES),
         device=args.device, settings=_settings(args), stability=not args.no_stability,
-        figures=not args.no_figures, progress=not args.quiet, argv=args.argv)
+        figures=not args.no_figures, fresh=args.fresh, progress=not args.quiet,
+        argv=args.argv)
     from .report_files import test_table
 
     print(test_table(results))
@@ -119,7 +120,7 @@ def _benchmark(args):
     path, results = benchmark_report(
         args.test, args.out, args.runs or [], classical=_classical(args, None),
         device=args.device, settings=_settings(args), figures=not args.no_figures,
-        progress=not args.quiet, argv=args.argv)
+        fresh=args.fresh, progress=not args.quiet, argv=args.argv)
     print(work_precision_markdown(results).split("\n\n")[0])
     print("\n" + "\n".join(statements(results)))
     print(f"\nwork precision: {path}")
@@ -144,6 +145,8 @@ def _add_evaluation_options(parser):
                         help="test potentials for one-at-a-time solvers (DOP853)")
     parser.add_argument("--no-timing", action="store_true", help="skip the timings")
     parser.add_argument("--no-figures", action="store_true", help="skip the figures")
+    parser.add_argument("--fresh", action="store_true",
+                        help="recompute every method (ignore OUT/cache)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 

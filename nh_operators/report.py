@@ -139,8 +139,10 @@ def evaluate_method(method, dataset, settings=None):
 
 
 def _cache_key(method, dataset, settings):
+    from ._version import __version__
+
     key = {"method": _fingerprint(method), "dataset": dataset.checksum,
-           "settings": settings.as_dict()}
+           "settings": settings.as_dict(), "version": __version__}
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()
 
 
@@ -163,7 +165,8 @@ def _store(cache_dir, name, key, entry, arrays):
                  json.dumps({"key": key, "entry": entry}, default=str).encode())
 
 
-def evaluate_methods(methods, dataset, settings=None, *, cache_dir=None, progress=True):
+def evaluate_methods(methods, dataset, settings=None, *, cache_dir=None, fresh=False,
+                     progress=True):
     """Evaluate many methods (networks and classical baselines) on the same inputs.
 
     Args:
@@ -172,7 +175,9 @@ def evaluate_methods(methods, dataset, settings=None, *, cache_dir=None, progres
         dataset: the labelled test set.
         settings: :class:`EvaluationSettings`.
         cache_dir: folder for per-method results; finished methods are reused when
-            the test set, the method (its checkpoint's hash) and the settings match.
+            the test set, the method (its checkpoint's hash), the settings and the
+            package version match.
+        fresh: ignore (and overwrite) cached results.
         progress: log a line per method (``logging`` at INFO, and a tqdm bar).
 
     Returns:
@@ -198,7 +203,7 @@ def evaluate_methods(methods, dataset, settings=None, *, cache_dir=None, progres
     for name, method in methods.items():
         bar.set_description(f"evaluating {name}")
         key = _cache_key(method, dataset, settings) if cache is not None else None
-        found = _load_cached(cache, name, key) if cache is not None else None
+        found = _load_cached(cache, name, key) if cache is not None and not fresh else None
         if found is None:
             found = evaluate_method(method, dataset, settings)
             if cache is not None:

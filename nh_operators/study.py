@@ -63,7 +63,8 @@ def _command(argv):
 
 
 def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cpu",
-                    settings=None, stability=True, figures=True, progress=True, argv=None):
+                    settings=None, stability=True, figures=True, fresh=False, progress=True,
+                    argv=None):
     """Evaluate runs and baselines on a test file and write the report folder.
 
     Args:
@@ -75,6 +76,7 @@ def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cp
         settings: :class:`~nh_operators.report.EvaluationSettings`.
         stability: add the stability-at-the-extremes section.
         figures: draw the figures.
+        fresh: recompute every method, ignoring ``out/cache``.
         progress: progress bar.
         argv: the command line to quote in the report.
 
@@ -85,7 +87,7 @@ def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cp
     dataset.attrs["path"] = str(test)
     methods = load_methods(runs, classical, device=device)
     results, arrays = evaluate_methods(methods, dataset, settings, cache_dir=Path(out) / "cache",
-                                       progress=progress)
+                                       fresh=fresh, progress=progress)
     table = md = None
     if stability:
         from .stability import stability_markdown, stability_table
@@ -98,7 +100,7 @@ def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cp
 
 
 def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settings=None,
-                     figures=True, progress=True, argv=None):
+                     figures=True, fresh=False, progress=True, argv=None):
     """The speed/accuracy study on a test file: work-precision table, figure, statements.
 
     Writes ``work_precision.md``, ``work_precision.json`` (the ``report.json`` shape)
@@ -109,7 +111,7 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
         out: output folder.
         runs: run directories of trained networks (optional).
         classical: classical methods (default: all of them).
-        device, settings, figures, progress, argv: as :func:`evaluate_report`.
+        device, settings, figures, fresh, progress, argv: as :func:`evaluate_report`.
 
     Returns:
         (path of work_precision.md, results dict).
@@ -119,7 +121,7 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
     dataset.attrs["path"] = str(test)
     methods = load_methods(runs, classical, device=device)
     results, arrays = evaluate_methods(methods, dataset, settings, cache_dir=out / "cache",
-                                       progress=progress)
+                                       fresh=fresh, progress=progress)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "work_precision.json", results)
     text = ["# Speed and accuracy (work precision)", "",

@@ -155,3 +155,18 @@ def test_cli_errors_are_clear(tiny_run, capsys):
     assert main(base + ["--classical", "rk5"]) == 2
     assert "unknown classical method" in capsys.readouterr().err
     assert main(base[:1] + ["--test", str(tiny_run / "missing.h5")] + base[3:]) == 2
+
+
+def test_fresh_recomputes(testset, tmp_path):
+    calls = []
+
+    def run(V, t):
+        calls.append(len(V))
+        return nh.integrate_sensors(V, t, "rk4", 1)
+
+    methods = {"rk4": ClassicalMethod("rk4", run, "rk4")}
+    settings = EvaluationSettings(timing=False)
+    for fresh in (False, False, True):
+        evaluate_methods(methods, testset, settings, cache_dir=tmp_path, fresh=fresh,
+                         progress=False)
+    assert len(calls) == 12  # computed, reused, recomputed
