@@ -47,3 +47,17 @@ def test_training_on_cuda(amp, tmp_path):
     assert next(net.parameters()).is_cuda
     assert np.isfinite(history[-1]["val_loss"])
     assert torch.get_default_device().type == "cpu"
+
+
+def test_timing_on_cuda_synchronises_and_names_the_gpu():
+    from nh_operators.timing import device_info, seconds_per_trajectory
+
+    method = nh.NeuralMethod(tiny("traonet").cuda(), "traonet", domain_check=False)
+    calls = []
+    sync = method.synchronize
+    method.synchronize = lambda: calls.append(1) or sync()
+    V = np.tile(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS), (16, 1))
+    r = seconds_per_trajectory(method, V, nh.TIMES, n_single=2, repeats=2)
+    assert method.device.startswith("cuda") and r["batch_1"] > 0 and r["batched"] > 0
+    assert len(calls) == 2 * 3 + 3  # before the clock and after every timed call
+    assert device_info(method.device)["device"].startswith("cuda: ")
