@@ -22,6 +22,7 @@ import time
 import numba
 
 from nh_operators.data import PRESETS, generate_dataset
+from nh_operators.timing import cpu_name
 
 SEED = PRESETS["standard"]["seed"]
 WARMUP_SIZE = 200
@@ -31,21 +32,9 @@ EXTRAPOLATE_TO = 1_000_000
 def machine_description():
     """Processor, OS and core counts of this machine, on one line."""
     uname = platform.uname()
-    cpu = platform.processor() or _cpu_model() or uname.machine
+    cpu = cpu_name()
     return (f"{cpu} ({uname.machine}), {uname.system} {uname.release}; "
             f"CPU count {os.cpu_count()}, numba threads {numba.get_num_threads()}")
-
-
-def _cpu_model():
-    """The CPU model name from /proc/cpuinfo, or "" where there is none."""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return ""
 
 
 def time_generation(n, seed, repeats):

@@ -1,5 +1,6 @@
 """Losses and the classical baselines on the physical potentials (DESIGN §2)."""
 
+import functools
 import time
 import warnings
 
@@ -97,10 +98,24 @@ def energy_error(q, p, potential, energy=V0):
 
 
 def physical_reference(name, t=TIMES):
-    """Reference (q, p) of a physical potential: exact if known, else DOP853 at 1e-13."""
+    """Reference (q, p) of a physical potential: exact if known, else DOP853 at 1e-13.
+
+    Solves are remembered per (name, times), so evaluating many methods costs one each;
+    the arrays returned are read-only.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    return _reference(name, t.tobytes(), t.shape)
+
+
+@functools.lru_cache(maxsize=64)
+def _reference(name, t_bytes, shape):
+    t = np.frombuffer(t_bytes).reshape(shape)
     pot = PHYSICAL_POTENTIALS[name]
     exact = pot.exact(t)
-    return exact if exact is not None else reference_solve(pot, t)
+    q, p = exact if exact is not None else reference_solve(pot, t)
+    for a in (q, p):
+        a.flags.writeable = False
+    return q, p
 
 
 #: Classical baselines of the physical-potential table (``nh-operators demo``), from

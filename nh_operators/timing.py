@@ -18,10 +18,12 @@ import numpy as np
 
 from .evaluate import summarize
 
-__all__ = ["device_info", "busy_machine_warning", "time_call", "seconds_per_trajectory"]
+__all__ = ["cpu_name", "device_info", "busy_machine_warning", "time_call",
+           "seconds_per_trajectory"]
 
 
-def _cpu_name():
+def cpu_name():
+    """The CPU model (from /proc/cpuinfo where there is one), else the platform's name."""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
             for line in f:
@@ -54,7 +56,7 @@ def device_info(device="cpu"):
     if str(device).startswith("cuda"):
         name = f"cuda: {torch.cuda.get_device_name(torch.device(device))}"
     else:
-        name = f"cpu: {_cpu_name()}, {os.cpu_count()} logical cores"
+        name = f"cpu: {cpu_name()}, {os.cpu_count()} logical cores"
     return {"device": name, "torch_threads": torch.get_num_threads(),
             "numba_threads": numba.get_num_threads(), "cpu_count": os.cpu_count(),
             "load_average": _load_average(), "platform": platform.platform()}

@@ -59,14 +59,19 @@ def test_report_shape_subsets_and_timings(evaluated):
     assert results["test_set"]["n"] == 24
 
 
-def test_cache_is_reused_and_refreshed_when_settings_change(testset, tmp_path):
+def counting_rk4():
+    """An RK4 method that records the batch size of every call it gets."""
     calls = []
 
     def run(V, t):
         calls.append(len(V))
         return nh.integrate_sensors(V, t, "rk4", 1)
 
-    methods = {"rk4": ClassicalMethod("rk4", run, "rk4")}
+    return {"rk4": ClassicalMethod("rk4", run, "rk4")}, calls
+
+
+def test_cache_is_reused_and_refreshed_when_settings_change(testset, tmp_path):
+    methods, calls = counting_rk4()
     settings = EvaluationSettings(timing=False)
     first, _ = evaluate_methods(methods, testset, settings, cache_dir=tmp_path, progress=False)
     n_calls = len(calls)
@@ -158,13 +163,7 @@ def test_cli_errors_are_clear(tiny_run, capsys):
 
 
 def test_fresh_recomputes(testset, tmp_path):
-    calls = []
-
-    def run(V, t):
-        calls.append(len(V))
-        return nh.integrate_sensors(V, t, "rk4", 1)
-
-    methods = {"rk4": ClassicalMethod("rk4", run, "rk4")}
+    methods, calls = counting_rk4()
     settings = EvaluationSettings(timing=False)
     for fresh in (False, False, True):
         evaluate_methods(methods, testset, settings, cache_dir=tmp_path, fresh=fresh,
