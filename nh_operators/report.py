@@ -32,6 +32,8 @@ from .timing import busy_machine_warning, device_info, seconds_per_trajectory
 __all__ = ["EvaluationSettings", "evaluate_methods", "evaluate_method"]
 
 log = logging.getLogger(__name__)
+_NO_STATS = {"mean": float("nan"), "std": float("nan"), "median": float("nan"),
+             "iqr": float("nan")}
 
 
 class EvaluationSettings:
@@ -121,7 +123,8 @@ def evaluate_method(method, dataset, settings=None):
         "kind": method.kind,
         "family": method.family,
         "description": getattr(method, "description", ""),
-        "test": {**summarize(losses[finite]), "n": int(n), "n_nonfinite": int(n - finite.sum())},
+        "test": {**(summarize(losses[finite]) if finite.any() else _NO_STATS), "n": int(n),
+                 "n_nonfinite": int(n - finite.sum())},
         "physical": physical,
         "seconds_per_trajectory": timing or {"batch_1": None, "batched": None},
         "device": info["device"],

@@ -169,3 +169,25 @@ def test_fresh_recomputes(testset, tmp_path):
         evaluate_methods(methods, testset, settings, cache_dir=tmp_path, fresh=fresh,
                          progress=False)
     assert len(calls) == 12  # computed, reused, recomputed
+
+
+def test_a_method_returning_nan_is_reported_not_fatal(testset, tmp_path):
+    def broken(V, t):
+        q, p = nh.integrate_sensors(V, t, "rk4", 1)
+        q[::2] = np.nan
+        return q, p
+
+    methods = {"broken": ClassicalMethod("broken", broken, "broken")}
+    results, arrays = evaluate_methods(methods, testset, EvaluationSettings(timing=False),
+                                       progress=False)
+    test = results["methods"]["broken"]["test"]
+    assert test["n_nonfinite"] == 12 and test["n"] == 24 and np.isfinite(test["mean"])
+    assert int(arrays["broken"]["worst"]) == 0  # the first non-finite sample
+    everything = {"broken": ClassicalMethod(
+        "broken", lambda V, t: (np.full((len(V), len(t)), np.nan),) * 2, "broken")}
+    results, _ = evaluate_methods(everything, testset, EvaluationSettings(timing=False),
+                                  progress=False)
+    assert results["methods"]["broken"]["test"]["n_nonfinite"] == 24
+    write_report(results, _, testset, tmp_path, figures=False)
+    saved = json.loads((tmp_path / "report.json").read_text())
+    assert saved["methods"]["broken"]["test"]["mean"] is None
