@@ -30,6 +30,9 @@ from .resolution import ResolutionWarning  # noqa: E402
 from .methods import CLASSICAL_METHODS, ClassicalMethod, NeuralMethod  # noqa: E402
 from .report import EvaluationSettings, evaluate_methods  # noqa: E402
 from .stability import OutOfDomainWarning, domain_violations, extreme_potentials  # noqa: E402
+from .pretrained import available_pretrained, pretrained  # noqa: E402
+from .classical_solve import solve_classical  # noqa: E402
+from .expression import parse_potential  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -66,4 +69,8 @@ __all__ = [
     "NeuralMethod",
     "EvaluationSettings",
     "evaluate_methods",
+    "available_pretrained",
+    "pretrained",
+    "solve_classical",
+    "parse_potential",
 ]

@@ -1,4 +1,4 @@
-"""Command line: ``nh-operators generate | demo | train | evaluate | benchmark``.
+"""Command line: ``nh-operators generate | demo | train | evaluate | benchmark | export``.
 
 Thin: parse the arguments, then call the library.
 """
@@ -126,6 +126,15 @@ def _benchmark(args):
     print(f"\nwork precision: {path}")
 
 
+def _export(args):
+    from .pretrained import export_pretrained
+
+    out = export_pretrained(args.run_dir, args.out, report=args.report, name=args.name,
+                            commands=args.command or [])
+    size = sum(f.stat().st_size for f in out.iterdir())
+    print(f"exported {args.run_dir} to {out} ({size / 1e6:.2f} MB)")
+
+
 def _add_evaluation_options(parser):
     parser.add_argument("--test", required=True,
                         help="labelled test set .h5 (nh-operators generate --preset test)")
@@ -197,6 +206,15 @@ def build_parser():
     be = sub.add_parser("benchmark", help="the speed/accuracy (work-precision) study")
     _add_evaluation_options(be)
     be.set_defaults(run=_benchmark)
+    ex = sub.add_parser("export", help="a run's weights, config, log and metrics as a "
+                        "shippable folder (nh_operators/weights/NAME)")
+    ex.add_argument("--run", required=True, dest="run_dir", help="run directory")
+    ex.add_argument("--out", required=True, help="destination folder")
+    ex.add_argument("--report", help="report.json of nh-operators evaluate with this run")
+    ex.add_argument("--name", help="the model's name in the report (default: its model)")
+    ex.add_argument("--command", action="append",
+                    help="a command that regenerates it (repeatable, stored in metrics.json)")
+    ex.set_defaults(run=_export)
     return parser
 
 
