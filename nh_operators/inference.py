@@ -1,7 +1,11 @@
 """Batched prediction with a trained network."""
 
+import warnings
+
 import numpy as np
 import torch
+
+from ._constants import TIMES
 
 __all__ = ["predict", "batched_forward"]
 
@@ -36,6 +40,10 @@ def batched_forward(net, V, t, batch_size):
         net.train(was_training)
 
 
+def _is_training_grid(t):
+    return t.shape == TIMES.shape and np.allclose(t, TIMES, rtol=0, atol=1e-12)
+
+
 def predict(net, V, t, batch_size=1000):
     """Predict q(t) and p(t) for many potentials, in batches, without a graph.
 
@@ -51,6 +59,11 @@ def predict(net, V, t, batch_size=1000):
 
     Raises:
         ValueError: for wrong shapes, non-finite inputs or a bad batch size.
+
+    Warns:
+        UserWarning: when a network whose query times are coupled (TraONet, VaRONet,
+            MambONet: ``net.query_coupled``) is asked at times other than
+            :data:`~nh_operators.TIMES`.
 
     Example:
         >>> import numpy as np, nh_operators as nh
@@ -74,6 +87,13 @@ def predict(net, V, t, batch_size=1000):
         raise ValueError("V and t must be finite")
     if int(batch_size) != batch_size or batch_size < 1:
         raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
+    if getattr(net, "query_coupled", False) and not _is_training_grid(t):
+        warnings.warn(
+            f"{type(net).__name__} couples the query times: asked at times other than the "
+            "100-point training grid, its predictions change (by up to 0.1-1 in q for the "
+            "10-epoch cpu models, docs/evaluation.md). Predict on nh_operators.TIMES and "
+            "interpolate, or use deeponet or fno, whose predictions do not depend on the "
+            "other times asked", UserWarning, stacklevel=2)
     out = np.empty((len(V), len(t), 2))
     for start, y in batched_forward(net, V, t[:, None], batch_size):
         out[start:start + len(y)] = y.double().cpu().numpy()

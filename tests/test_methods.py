@@ -98,3 +98,24 @@ def test_neural_method_from_run(tmp_path):
     np.testing.assert_allclose(q, direct[..., 0].double().numpy(), rtol=0, atol=1e-6)
     with pytest.raises(FileNotFoundError):
         NeuralMethod.from_run(tmp_path / "missing")
+
+
+@pytest.mark.parametrize("name,coupled", [("traonet", True), ("mambonet", True),
+                                          ("varonet", True), ("deeponet", False),
+                                          ("fno", False)])
+def test_query_coupling_is_declared_truthfully_and_warned(name, coupled):
+    import warnings
+
+    net = tiny(name)
+    assert getattr(net, "query_coupled", False) is coupled
+    V = sho_sensors(3) - np.linspace(0, 0.5, 3)[:, None] * np.sin(np.pi * nh.SENSORS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        q_full, _ = nh.predict(net, V, nh.TIMES)  # the training grid never warns
+    idx = [10, 50, 90]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        q_sub, _ = nh.predict(net, V, nh.TIMES[idx])
+    assert any("couples the query times" in str(w.message) for w in caught) is coupled
+    gap = np.abs(q_sub - q_full[:, idx]).max()
+    assert (gap > 1e-4) if coupled else (gap < 1e-5)

@@ -117,6 +117,9 @@ class OperatorNet(NN):
 
     n_sensors = 100
     n_outputs = 2
+    #: True when a prediction at one time depends on the other times of the same call
+    #: (self-attention over the query times, or an LSTM reading them as a sequence).
+    query_coupled = False
 
     def forward(self, inputs):
         V, t = split_inputs(inputs, self.n_sensors)

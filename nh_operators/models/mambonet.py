@@ -49,6 +49,8 @@ class MambONet(OperatorNet):
         torch.Size([3, 5, 2])
     """
 
+    query_coupled = True  # decoder self-attention over the query times
+
     def __init__(self, d_model=128, num_mamba_layers=4, nhead=4, num_decoder_layers=4,
                  dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
                  n_sensors=100, n_outputs=2, time_scale=99 / 2):

@@ -36,6 +36,8 @@ class TraONet(OperatorNet):
         torch.Size([3, 7, 2])
     """
 
+    query_coupled = True  # decoder self-attention over the query times
+
     def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
                  dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2):
         super().__init__()

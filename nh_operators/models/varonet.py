@@ -41,6 +41,8 @@ class VaRONet(OperatorNet):
         (torch.Size([3, 6, 2]), torch.Size([]))
     """
 
+    query_coupled = True  # LSTM decoders read the query times as a sequence
+
     def __init__(self, hidden_size=512, num_layers=4, latent_dim=30, n_sensors=100,
                  n_outputs=2):
         super().__init__()
