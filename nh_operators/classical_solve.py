@@ -12,7 +12,8 @@ about the same: the estimate errs on the safe side for every order ≥ 1 — onc
 errors shrink with the step. Before that, two coarse solutions can be wrong alike and
 agree (a generator potential of the test set: L_tot 3e-4 and 5e-4 at 1 and 2 RK4
 substeps, 2e-5 apart). So a level is accepted only when its estimate is below ``tol``
-*and* below the previous level's estimate: the differences have started to shrink.
+*and*, from the second level on, below the previous level's estimate: the differences
+have started to shrink.
 Even then the estimate can be low by more than 10× (one test-set potential in a
 thousand: 3e-9 estimated, 5e-8 true), so a level must reach ``SAFETY · tol``; except
 where successive estimates shrink by less than 16× (first-order convergence, as across
