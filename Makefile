@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN = $(VENV)/bin
 
-.PHONY: demo test test-all bench clean
+.PHONY: demo test test-all bench study clean
 
 $(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -25,5 +25,9 @@ bench: $(BIN)/.installed  ## benchmark tables (minutes)
 	$(BIN)/python benchmarks/classical_speed_accuracy.py
 	$(BIN)/python benchmarks/model_throughput.py
 
+study: $(BIN)/.installed  ## work precision on the test set (minutes); add networks: make study RUNS="runs/a runs/b"
+	test -f test.h5 || $(BIN)/nh-operators generate --preset test --out test.h5 --quiet
+	$(BIN)/nh-operators benchmark --test test.h5 $(foreach r,$(RUNS),--run $(r)) --out bench
+
 clean:
-	rm -rf $(VENV) demo build *.egg-info
+	rm -rf $(VENV) demo bench build *.egg-info
