@@ -1,0 +1,35 @@
+import numpy as np
+import pytest
+
+from nh_operators.training_plots import plot_training_curves, read_history
+
+
+def write_history(path, rows):
+    path.mkdir()
+    lines = ["epoch,train_loss,val_loss,lr,seconds"]
+    lines += [f"{e},{tr},{va},1e-3,{s}" for e, tr, va, s in rows]
+    (path / "history.csv").write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_curves_are_the_history_against_minutes(tmp_path):
+    run = write_history(tmp_path / "a", [(1, 0.5, 0.4, 30), (2, 0.2, 0.1, 60), (3, 0.1, 0.05, 90)])
+    h = read_history(run)
+    np.testing.assert_array_equal(h["epoch"], [1, 2, 3])
+    fig = plot_training_curves({"a": run}, goals={"paper": 0.01}, title="t")
+    (ax,) = fig.axes
+    val, train, goal = ax.lines
+    np.testing.assert_allclose(val.get_xdata(), [0.5, 1.0, 1.5])
+    np.testing.assert_array_equal(val.get_ydata(), [0.4, 0.1, 0.05])
+    np.testing.assert_array_equal(train.get_ydata(), [0.5, 0.2, 0.1])
+    assert goal.get_ydata()[0] == 0.01 and ax.get_yscale() == "log"
+
+
+def test_errors(tmp_path):
+    with pytest.raises(ValueError, match="no runs"):
+        plot_training_curves({})
+    empty = write_history(tmp_path / "e", [])
+    with pytest.raises(ValueError, match="holds no epochs"):
+        read_history(empty)
+    with pytest.raises(FileNotFoundError):
+        read_history(tmp_path / "missing")
