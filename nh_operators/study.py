@@ -9,7 +9,6 @@
 Both cache per-method results in ``OUT/cache`` and resume after an interruption.
 """
 
-import logging
 import shlex
 import sys
 from pathlib import Path
@@ -19,11 +18,10 @@ from .data import load_dataset
 from .methods import EVALUATE_BASELINES, NeuralMethod, classical_methods
 from .report import evaluate_methods
 from .report_files import save_figure, write_json, write_report
-from .workprecision import faster_statements, work_precision_markdown, work_precision_rows
+from .workprecision import (REGIMES, faster_statements, work_precision_markdown,
+                            work_precision_rows)
 
 __all__ = ["load_methods", "evaluate_report", "benchmark_report"]
-
-log = logging.getLogger(__name__)
 
 
 def load_methods(runs=(), classical=EVALUATE_BASELINES, *, device="cpu", batch_size=1000):
@@ -58,6 +56,16 @@ def load_methods(runs=(), classical=EVALUATE_BASELINES, *, device="cpu", batch_s
     return methods
 
 
+def _evaluate(test, out, runs, classical, device, settings, fresh, progress):
+    """Load the test set and the methods, and evaluate them with the cache in OUT/cache."""
+    dataset = load_dataset(test)
+    dataset.attrs["path"] = str(test)
+    methods = load_methods(runs, classical, device=device)
+    results, arrays = evaluate_methods(methods, dataset, settings, cache_dir=Path(out) / "cache",
+                                       fresh=fresh, progress=progress)
+    return dataset, methods, results, arrays
+
+
 def _command(argv):
     return "nh-operators " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
 
@@ -83,11 +91,8 @@ def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cp
     Returns:
         (path of report.md, results dict).
     """
-    dataset = load_dataset(test)
-    dataset.attrs["path"] = str(test)
-    methods = load_methods(runs, classical, device=device)
-    results, arrays = evaluate_methods(methods, dataset, settings, cache_dir=Path(out) / "cache",
-                                       fresh=fresh, progress=progress)
+    dataset, methods, results, arrays = _evaluate(test, out, runs, classical, device,
+                                                  settings, fresh, progress)
     table = md = None
     if stability:
         from .stability import stability_markdown, stability_table
@@ -117,11 +122,8 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
         (path of work_precision.md, results dict).
     """
     out = Path(out)
-    dataset = load_dataset(test)
-    dataset.attrs["path"] = str(test)
-    methods = load_methods(runs, classical, device=device)
-    results, arrays = evaluate_methods(methods, dataset, settings, cache_dir=out / "cache",
-                                       fresh=fresh, progress=progress)
+    dataset, _, results, _ = _evaluate(test, out, runs, classical, device, settings, fresh,
+                                       progress)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "work_precision.json", results)
     text = ["# Speed and accuracy (work precision)", "",
@@ -137,7 +139,7 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
             rows = work_precision_rows(results, regime)
             name = "work_precision.png" if regime == "batched" else "work_precision_batch1.png"
             save_figure(plots.plot_work_precision(rows, title=f"work precision ({regime})"),
-                  out / name)
+                        out / name)
             text += [f"![{regime}]({name})", ""]
     path = out / "work_precision.md"
     write_atomic(path, "\n".join(text).encode())
@@ -146,5 +148,5 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
 
 def statements(results):
     """All faster-than-classical sentences of a result, both regimes."""
-    return [s for regime in ("batched", "batch_1")
+    return [s for regime in REGIMES
             for s in faster_statements(work_precision_rows(results, regime), regime)]
