@@ -176,6 +176,7 @@ class _Run:
         self.epoch_callback = epoch_callback
         self.t0 = time.perf_counter()
         self.elapsed0 = 0.0
+        self.max_seconds = None
         self.bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -209,6 +210,16 @@ class _Run:
                                  val=f"{record['val_loss']:.3e}", lr=f"{lr:.2e}")
         if self.epoch_callback is not None:
             self.epoch_callback(dict(record), self.net)
+        if self.over_budget() and self.epoch < self.cfg["epochs"]:
+            log.warning("stopping after epoch %d of %d: the run has used %.1f min of "
+                        "its %.1f-minute budget (--resume with a larger one continues)",
+                        self.epoch, self.cfg["epochs"], record["seconds"] / 60,
+                        self.max_seconds / 60)
+            self.model.stop_training = True
+
+    def over_budget(self):
+        return (self.max_seconds is not None and bool(self.history)
+                and self.history[-1]["seconds"] >= self.max_seconds)
 
     def save(self):
         save_checkpoint(self.out, {
@@ -234,7 +245,8 @@ def _load_data(data):
     return data
 
 
-def train(config, data, out, *, resume=False, progress=True, epoch_callback=None):
+def train(config, data, out, *, resume=False, progress=True, epoch_callback=None,
+          max_minutes=None):
     """Train a network through ``dde.Model`` and write a run directory.
 
     Args:
@@ -248,6 +260,10 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
         progress: show a progress bar (epoch, train and validation loss, lr, time).
         epoch_callback: called as ``epoch_callback(record, net)`` after each epoch's
             checkpoint, with the epoch's history record (a dict) and the network.
+        max_minutes: wall-time budget in minutes, counted over the whole run (resumed
+            parts included). Training stops after the first epoch that ends past it,
+            with that epoch's checkpoint saved; ``--resume`` with a larger budget
+            continues the same schedule. Not part of the config. ``None``: no limit.
 
     Returns:
         (network, history): the trained network (train mode) and a list of per-epoch
@@ -265,6 +281,8 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
         >>> net, history = nh.train(cfg, "standard.h5", "runs/traonet")  # doctest: +SKIP
     """
     cfg = config.resolved()
+    if max_minutes is not None and not max_minutes > 0:
+        raise ValueError(f"max_minutes must be positive, got {max_minutes}")
     device = resolve_device(cfg["device"])
     if cfg["amp"] and device.type != "cuda":
         raise ValueError("amp (float16 autocast) is only supported on CUDA")
@@ -303,9 +321,14 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
         model.lr_scheduler = scheduler
         run = _Run(cfg, out, net, data_obj, model, scheduler, device, checksum,
                    progress, epoch_callback)
+        run.max_seconds = None if max_minutes is None else 60.0 * max_minutes
         if state is not None:
             _restore(run, state)
         remaining = cfg["epochs"] * steps - data_obj.cursor
+        if run.over_budget():
+            log.warning("the run has used %.1f of its %.1f minutes; nothing to do",
+                        run.history[-1]["seconds"] / 60, max_minutes)
+            remaining = 0
         log.info("training %s (%d parameters) on %s for %d iterations",
                  cfg["model"], count_parameters(net), device, remaining)
         try:

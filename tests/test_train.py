@@ -80,6 +80,25 @@ def test_resumed_run_ends_where_an_uninterrupted_one_does(name, small, tmp_path)
         assert torch.equal(a, b), k
 
 
+def test_wall_time_budget_stops_after_an_epoch_and_resume_finishes_the_schedule(
+        small, tmp_path):
+    full_net, full = nh.train(cfg("deeponet"), small, tmp_path / "full", progress=False)
+    # a budget shorter than one epoch: exactly one epoch runs, its checkpoint is saved
+    _, part = nh.train(cfg("deeponet"), small, tmp_path / "cut", progress=False,
+                       max_minutes=1e-9)
+    assert [h["epoch"] for h in part] == [1]
+    assert load_checkpoint(tmp_path / "cut")["epoch"] == 1
+    # resuming with the spent budget does nothing; a larger one completes the schedule
+    _, again = nh.train(cfg("deeponet"), small, tmp_path / "cut", resume=True,
+                        progress=False, max_minutes=1e-9)
+    assert [h["epoch"] for h in again] == [1]
+    net, rest = nh.train(cfg("deeponet"), small, tmp_path / "cut", resume=True,
+                         progress=False)
+    assert [h["val_loss"] for h in rest] == [h["val_loss"] for h in full]
+    with pytest.raises(ValueError, match="max_minutes must be positive"):
+        nh.train(cfg("deeponet"), small, tmp_path / "bad", max_minutes=0)
+
+
 def test_resume_refuses_another_config_or_dataset(small, tmp_path):
     nh.train(cfg("deeponet", epochs=1), small, tmp_path, progress=False)
     with pytest.raises(ValueError, match=r"differs in \['seed'\]"):
