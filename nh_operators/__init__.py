@@ -33,6 +33,7 @@ from .stability import OutOfDomainWarning, domain_violations, extreme_potentials
 from .pretrained import available_pretrained, pretrained  # noqa: E402
 from .classical_solve import solve_classical  # noqa: E402
 from .expression import parse_potential  # noqa: E402
+from .auto_solve import DEFAULT_TOL, Solution, solve  # noqa: E402
 
 __all__ = [
     "__version__",
@@ -73,4 +74,7 @@ __all__ = [
     "pretrained",
     "solve_classical",
     "parse_potential",
+    "solve",
+    "Solution",
+    "DEFAULT_TOL",
 ]

@@ -30,7 +30,7 @@ from .evaluate import loss_per_sample
 from .potentials import BoundedPotential, check_bounded
 from .solvers import ORDERS, integrate, integrate_sensors
 
-__all__ = ["ClassicalSolution", "as_potential", "solve_classical", "SAFETY"]
+__all__ = ["ClassicalSolution", "as_potential", "solve_classical", "adaptive_solve", "SAFETY"]
 
 #: A level is accepted when its estimate is below SAFETY · tol (see above).
 SAFETY = 0.01
@@ -157,15 +157,34 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
         >>> sol.error_estimate <= 1e-10, round(float(sol.q[0]), 6)
         (True, 0.708073)
     """
-    import warnings
-
     start = time.perf_counter()
     if not (isinstance(tol, (int, float)) and tol > 0):
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     if method not in ORDERS:
         raise ValueError(f"unknown method {method!r}; choose one of {sorted(ORDERS)}")
-    pot, information = as_potential(potential, dV)
+    from ._backend import single_threaded
+
+    with single_threaded():
+        pot, information = as_potential(potential, dV)
     t = np.asarray(t, dtype=np.float64).reshape(-1)
+    return adaptive_solve(pot, information, t, tol, method, max_substeps, start)
+
+
+def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=None):
+    """The doubling loop of :func:`solve_classical` on an already checked potential
+    (the output of :func:`as_potential`); ``start`` is the perf_counter at which the
+    solve's clock started (default: now). Runs on one thread
+    (:func:`~nh_operators._backend.single_threaded`)."""
+    from ._backend import single_threaded
+
+    start = time.perf_counter() if start is None else start
+    with single_threaded():
+        return _doubling(pot, information, t, tol, method, max_substeps, start)
+
+
+def _doubling(pot, information, t, tol, method, max_substeps, start):
+    import warnings
+
     substeps = 1
     q, p = _run(pot, information, t, method, substeps)
     history = []
@@ -184,7 +203,7 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
         if 2 * substeps > max_substeps:
             warnings.warn(f"tolerance {tol:g} not reached within {max_substeps} substeps "
                           f"(estimate {estimate:.3g}); returning the finest solution",
-                          RuntimeWarning, stacklevel=2)
+                          RuntimeWarning, stacklevel=5)
             break
     return ClassicalSolution(q, p, method, substeps, estimate, time.perf_counter() - start,
                              information, history)

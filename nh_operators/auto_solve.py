@@ -1,0 +1,253 @@
+"""``solve(potential, t, tol=..., method="auto")``: a network when it is expected to be
+cheaper and its estimate meets the tolerance, the classical solver otherwise.
+
+How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
+
+1. Without ``tol``: the classical solver at :data:`DEFAULT_TOL`.
+2. A shipped network is a candidate when it has a calibration
+   (``weights/NAME/calibration.json``, :func:`calibrate_pretrained`), the input is in
+   its domain (the sensor values inside what the generator produces:
+   :func:`~nh_operators.domain_violations`; the times inside [0, 2]), and it is expected
+   to be cheaper: with P the share of its calibration set whose calibrated estimate met
+   ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
+   T_classical(tol).
+3. The cheapest candidate predicts on :data:`TIMES`; its estimate is ``factor · (E + D)``
+   (energy residual plus Picard defect, :mod:`nh_operators.estimate`). At or below
+   ``tol`` its prediction, interpolated to ``t`` by cubic splines, is returned;
+   otherwise the classical solver runs, and the record lists both attempts.
+
+The classical solver (:func:`~nh_operators.solve_classical`) doubles RK4 substeps until
+its own estimate is met; it computes exactly the requested times.
+"""
+
+import functools
+import json
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._constants import SENSORS, TIMES
+from .classical_solve import adaptive_solve, as_potential
+from .estimate import acceptance_rate, raw_estimate, sensor_force
+from .solvers import ORDERS
+
+__all__ = ["Solution", "solve", "DEFAULT_TOL", "CALIBRATION"]
+
+#: Tolerance of the classical solve when none is given.
+DEFAULT_TOL = 1e-8
+#: File of a shipped model's calibration, next to its weights.
+CALIBRATION = "calibration.json"
+
+
+@dataclass
+class Solution:
+    """What :func:`solve` returns.
+
+    Attributes:
+        q, p: float64 arrays (M,) at the requested times, in their order.
+        method: the method that produced them (``"rk4"``, ``"deeponet"``, ...).
+        kind: ``"classical"`` or ``"neural"``.
+        error_estimate: estimated L_tot of (q, p) against the true trajectory.
+        seconds: wall time of the whole call.
+        tol: the tolerance asked for (``None`` if none).
+        reason: why this method was used, in words.
+        tried: one dict per method run (method, error_estimate, seconds, accepted).
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    method: str
+    kind: str
+    error_estimate: float
+    seconds: float
+    tol: float = None
+    reason: str = ""
+    tried: list = field(default_factory=list)
+
+
+@functools.lru_cache(maxsize=None)
+def _model(name):
+    from .pretrained import WEIGHTS, pretrained
+
+    model = pretrained(name)
+    path = WEIGHTS / name / CALIBRATION
+    model.calibration = json.loads(path.read_text()) if path.is_file() else None
+    return model
+
+
+def _sensor_values(pot, information):
+    return np.asarray(pot if information == "sensors" else pot.V(SENSORS), dtype=np.float64)
+
+
+def _rows(fn):
+    return lambda x: np.asarray(fn(x.reshape(-1)), dtype=np.float64).reshape(x.shape)
+
+
+def neural_solve(name, pot, information, t):
+    """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t.
+
+    Returns:
+        (q, p, estimate): the estimate is the calibrated one, or the raw E + D when the
+        model has no calibration.
+    """
+    from ._backend import single_threaded
+
+    with single_threaded():
+        return _neural_solve(name, pot, information, t)
+
+
+def _neural_solve(name, pot, information, t):
+    from scipy.interpolate import CubicSpline
+
+    from .inference import predict
+
+    model = _model(name)
+    V = _sensor_values(pot, information)
+    q, p = predict(model.net, V[None], TIMES, batch_size=1)
+    if information == "sensors":
+        force = sensor_force(V)
+    else:
+        force = (_rows(pot.V), _rows(pot.dV))
+    raw = float(raw_estimate(q, p, *force)[0])
+    factor = model.calibration["factor"] if model.calibration else 1.0
+    if np.array_equal(t, TIMES):
+        return q[0], p[0], factor * raw
+    return CubicSpline(TIMES, q[0])(t), CubicSpline(TIMES, p[0])(t), factor * raw
+
+
+def _classical_seconds(calibration, tol):
+    tols = np.log10(calibration["classical_tols"])
+    return float(np.interp(-np.log10(tol), -tols, calibration["classical_seconds"]))
+
+
+def _choose(tol, V, t):
+    """The network to try first, or None, with the reason in words."""
+    from .pretrained import available_pretrained
+    from .stability import domain_violations
+
+    if t.size and (t.min() < 0 or t.max() > TIMES[-1] + 1e-12):
+        return None, "times outside [0, 2], where the networks were trained"
+    outside = domain_violations(V)
+    if outside:
+        return None, "outside the networks' domain: " + outside[0]
+    best, notes = None, []
+    for name in available_pretrained():
+        cal = _model(name).calibration
+        if cal is None:
+            notes.append(f"{name}: not calibrated")
+            continue
+        share = acceptance_rate(cal, tol)
+        t_cls = _classical_seconds(cal, tol)
+        expected = cal["neural_seconds"] + (1.0 - share) * t_cls
+        if expected >= t_cls:
+            notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
+                         f"expected {1e6 * expected:.0f} µs against {1e6 * t_cls:.0f} µs")
+        elif best is None or expected < best[1]:
+            best = (name, expected, share)
+    if best is None:
+        return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
+    return best[0], (f"{best[0]} expected cheapest: its estimate met tol on "
+                     f"{best[2]:.0%} of its calibration set")
+
+
+def solve(potential, t, *, tol=None, method="auto", dV=None):
+    """The trajectory at exactly the times ``t``, by the cheapest method expected to meet
+    ``tol``.
+
+    Args:
+        potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`, a text
+            expression in q, a callable V(q) (with ``dV``), an object with ``V`` and
+            ``dV``, a :class:`~nh_operators.BoundedPotential`, or the 100 sensor values.
+        t: query times, shape (M,), ≥ 0 (≤ 2 for a network).
+        tol: target L_tot (> 0); ``None``: no target (``auto`` then solves classically
+            at :data:`DEFAULT_TOL`).
+        method: ``"auto"`` (see the module docstring), ``"classical"`` (RK4), an
+            integrator of :data:`~nh_operators.METHODS`, or a shipped model of
+            :func:`~nh_operators.available_pretrained`.
+        dV: derivative of a callable ``potential``.
+
+    Returns:
+        :class:`Solution`.
+
+    Raises:
+        ValueError: a bad potential, times, tolerance or method name, or times outside
+            [0, 2] for a network.
+
+    Warns:
+        UserWarning: a forced network whose estimate exceeds ``tol``.
+        OutOfDomainWarning: a forced network on an input outside its domain.
+
+    Example:
+        >>> sol = solve("sho", [0.5, 1.0], tol=1e-6)
+        >>> sol.kind, bool(sol.error_estimate <= 1e-6), round(float(sol.q[1]), 4)
+        ('classical', True, 0.8268)
+    """
+    from ._backend import single_threaded
+
+    start = time.perf_counter()
+    with single_threaded():  # one potential: threads only wait for time slices
+        return _solve(potential, t, tol, method, dV, start)
+
+
+def _solve(potential, t, tol, method, dV, start):
+    if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be a positive number or None, got {tol!r}")
+    from .pretrained import available_pretrained
+
+    networks = available_pretrained()
+    classical = {"classical": "rk4", **{m: m for m in ORDERS}}
+    if method != "auto" and method not in classical and method not in networks:
+        raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
+                         f"integrator {sorted(ORDERS)} or a shipped model {networks}")
+    pot, information = as_potential(potential, dV)
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
+        raise ValueError("t must be a non-empty array of finite times ≥ 0")
+    tried = []
+
+    if method in networks:
+        return _forced_network(method, pot, information, t, tol, start)
+    if method == "auto" and tol is not None:
+        name, reason = _choose(tol, _sensor_values(pot, information), t)
+        if name is not None:
+            t0 = time.perf_counter()
+            q, p, estimate = neural_solve(name, pot, information, t)
+            accepted = estimate <= tol
+            tried.append({"method": name, "error_estimate": estimate, "accepted": accepted,
+                          "seconds": time.perf_counter() - t0})
+            if accepted:
+                return Solution(q, p, name, "neural", estimate, time.perf_counter() - start,
+                                tol, reason, tried)
+            reason = f"{name}'s estimate {estimate:.2g} > tol {tol:g}; classical instead"
+    elif method == "auto":
+        reason = f"no tol: the classical solver at {DEFAULT_TOL:g}"
+    else:
+        reason = "forced"
+    integrator = classical.get(method, "rk4")
+    t0 = time.perf_counter()
+    sol = adaptive_solve(pot, information, t, DEFAULT_TOL if tol is None else tol, integrator)
+    tried.append({"method": integrator, "error_estimate": sol.error_estimate,
+                  "accepted": True, "seconds": time.perf_counter() - t0,
+                  "substeps": sol.substeps})
+    return Solution(sol.q, sol.p, integrator, "classical", sol.error_estimate,
+                    time.perf_counter() - start, tol, reason, tried)
+
+
+def _forced_network(name, pot, information, t, tol, start):
+    from .stability import OutOfDomainWarning, domain_violations
+
+    if t.max() > TIMES[-1] + 1e-12:
+        raise ValueError(f"{name} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
+    for message in domain_violations(_sensor_values(pot, information)):
+        warnings.warn(f"{name}: {message}", OutOfDomainWarning, stacklevel=4)
+    q, p, estimate = neural_solve(name, pot, information, t)
+    if tol is not None and estimate > tol:
+        warnings.warn(f"{name}'s error estimate {estimate:.2g} exceeds tol {tol:g}; use "
+                      "method='auto' to fall back to the classical solver", UserWarning,
+                      stacklevel=4)
+    seconds = time.perf_counter() - start
+    return Solution(q, p, name, "neural", estimate, seconds, tol, "forced",
+                    [{"method": name, "error_estimate": estimate, "accepted": True,
+                      "seconds": seconds}])

@@ -1,0 +1,76 @@
+"""Calibrate a shipped model for :func:`~nh_operators.solve`: its estimate's factor and
+the costs that ``method="auto"`` weighs (``nh-operators calibrate``).
+
+The calibration set must be labelled potentials from neither the training set (seed
+8407) nor the test set (seed 42); the shipped calibrations use
+``nh-operators generate --size 2000 --seed 2718``. The timings are medians on the
+machine that calibrates (recorded in the file): ``auto`` compares them only with each
+other, so a faster machine shifts both alike.
+"""
+
+import json
+import time
+
+import numpy as np
+
+from ._constants import TIMES
+from .checkpoint import write_atomic
+from .classical_solve import adaptive_solve
+from .estimate import calibrate
+from .auto_solve import CALIBRATION, _model, neural_solve
+
+__all__ = ["calibrate_pretrained", "CLASSICAL_TOLS"]
+
+#: Tolerances at which the classical solve's time is measured.
+CLASSICAL_TOLS = [10.0 ** -k for k in range(1, 13)]
+
+
+def _median_seconds(fn, items, repeats=3):
+    times = []
+    for item in items:
+        best = np.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            fn(item)
+            best = min(best, time.perf_counter() - t0)
+        times.append(best)
+    return float(np.median(times))
+
+
+def calibrate_pretrained(name, dataset, *, n_timing=30, write=True):
+    """Calibrate shipped model ``name`` on ``dataset`` and write its calibration file.
+
+    Args:
+        name: a shipped model (:func:`~nh_operators.available_pretrained`).
+        dataset: labelled :class:`~nh_operators.data.Dataset` on :data:`TIMES`, or the
+            path of its HDF5 file.
+        n_timing: potentials timed (batch 1; best of 3 each, median over them).
+        write: write ``weights/NAME/calibration.json`` (atomically).
+
+    Returns:
+        the calibration dict: :func:`~nh_operators.estimate.calibrate`'s keys plus
+        ``neural_seconds`` (one network solve on :data:`TIMES`, estimate included),
+        ``classical_tols`` / ``classical_seconds`` (the classical solve of the exact
+        potential on :data:`TIMES` at each tolerance) and ``device``.
+    """
+    from .data import load_dataset
+    from .pretrained import WEIGHTS
+    from .timing import device_info
+
+    if not hasattr(dataset, "V"):
+        dataset = load_dataset(dataset)
+    model = _model(name)
+    result = calibrate(model, dataset)
+    pots = [dataset.potential(i) for i in range(min(n_timing, len(dataset)))]
+    result["neural_seconds"] = _median_seconds(
+        lambda pot: neural_solve(name, pot, "exact V", TIMES), pots)
+    result["classical_tols"] = CLASSICAL_TOLS
+    result["classical_seconds"] = [
+        _median_seconds(lambda pot: adaptive_solve(pot, "exact V", TIMES, tol, "rk4"), pots)
+        for tol in CLASSICAL_TOLS]
+    result["device"] = device_info("cpu")
+    if write:
+        path = WEIGHTS / name / CALIBRATION
+        write_atomic(path, (json.dumps(result, indent=2) + "\n").encode())
+        model.calibration = result
+    return result
