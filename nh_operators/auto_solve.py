@@ -111,6 +111,8 @@ def _neural_solve(name, pot, information, t):
     else:
         force = (_rows(pot.V), _rows(pot.dV))
     raw = float(raw_estimate(q, p, *force)[0])
+    if not np.isfinite(raw):  # e.g. a prediction far outside [0, 1]
+        raw = np.inf
     factor = model.calibration["factor"] if model.calibration else 1.0
     if np.array_equal(t, TIMES):
         return q[0], p[0], factor * raw
@@ -122,16 +124,12 @@ def _classical_seconds(calibration, tol):
     return float(np.interp(-np.log10(tol), -tols, calibration["classical_seconds"]))
 
 
-def _choose(tol, V, t):
-    """The network to try first, or None, with the reason in words."""
+def _choose(tol, values, t):
+    """The network to try first, or None, with the reason in words. ``values()`` gives
+    the sensor values; the costs are weighed first, as they need no evaluation of V."""
     from .pretrained import available_pretrained
     from .stability import domain_violations
 
-    if t.size and (t.min() < 0 or t.max() > TIMES[-1] + 1e-12):
-        return None, "times outside [0, 2], where the networks were trained"
-    outside = domain_violations(V)
-    if outside:
-        return None, "outside the networks' domain: " + outside[0]
     best, notes = None, []
     for name in available_pretrained():
         cal = _model(name).calibration
@@ -148,6 +146,11 @@ def _choose(tol, V, t):
             best = (name, expected, share)
     if best is None:
         return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
+    if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
+        return None, "times outside [0, 2], where the networks were trained"
+    outside = domain_violations(values())
+    if outside:
+        return None, "outside the networks' domain: " + outside[0]
     return best[0], (f"{best[0]} expected cheapest: its estimate met tol on "
                      f"{best[2]:.0%} of its calibration set")
 
@@ -210,7 +213,7 @@ def _solve(potential, t, tol, method, dV, start):
     if method in networks:
         return _forced_network(method, pot, information, t, tol, start)
     if method == "auto" and tol is not None:
-        name, reason = _choose(tol, _sensor_values(pot, information), t)
+        name, reason = _choose(tol, lambda: _sensor_values(pot, information), t)
         if name is not None:
             t0 = time.perf_counter()
             q, p, estimate = neural_solve(name, pot, information, t)
