@@ -1,4 +1,5 @@
-"""Command line: ``nh-operators generate | demo | train | evaluate | benchmark | export``.
+"""Command line: ``nh-operators generate | demo | train | evaluate | benchmark | export |
+calibrate | predict``.
 
 Thin: parse the arguments, then call the library.
 """
@@ -49,6 +50,54 @@ def _demo(args):
     path = os.path.join(args.out, "physical_potentials.png")
     fig.savefig(path, dpi=110)
     print(f"\nfigure: {path}")
+
+
+def _predict(args):
+    import numpy as np
+
+    from ._constants import TIMES
+    from .auto_solve import solve
+    from .classical_solve import as_potential, solve_classical
+    from .evaluate import loss_per_sample
+    from .plots import plot_trajectory
+
+    times = TIMES if args.times is None else np.asarray(args.times, dtype=np.float64)
+    pot, _ = as_potential(args.potential)  # safe parse and the bounded checks
+    sol = solve(pot, times, tol=args.tol, method=args.model)
+    ref = solve_classical(pot, times, tol=1e-12, method="yoshida8")
+    true = float(loss_per_sample(sol.q, sol.p, ref.q, ref.p)["L_tot"])
+    formula = getattr(pot, "formula", args.potential)
+    print(f"V(q) = {formula}")
+    print(f"method: {sol.method} ({sol.kind}; {sol.reason}), {1e3 * sol.seconds:.2f} ms")
+    print(f"estimated L_tot {sol.error_estimate:.3g}; L_tot against a Yoshida-8 solve at "
+          f"1e-12: {true:.3g}" + ("" if args.tol is None else f"; tol {args.tol:g}"))
+    rows = np.arange(times.size)
+    if rows.size > args.rows:
+        rows = np.unique(np.linspace(0, times.size - 1, args.rows).round().astype(int))
+        print(f"({rows.size} of {times.size} times shown; --rows changes it)")
+    print(f"{'t':>8} {'q':>12} {'p':>12} {'|q - ref|':>11} {'|p - ref|':>11}")
+    for i in rows:
+        print(f"{times[i]:8.4f} {sol.q[i]:12.6f} {sol.p[i]:12.6f} "
+              f"{abs(sol.q[i] - ref.q[i]):11.2e} {abs(sol.p[i] - ref.p[i]):11.2e}")
+    if args.out:
+        order = np.argsort(times, kind="stable")
+        fig = plot_trajectory(pot, times[order], ref.q[order], ref.p[order],
+                              sol.q[order], sol.p[order], label=sol.method,
+                              title=f"V(q) = {formula}: {sol.method}, L_tot {true:.2g}")
+        from .report_files import save_figure
+
+        save_figure(fig, args.out)
+        print(f"figure: {args.out}")
+
+
+def _calibrate(args):
+    from .solve_calibration import calibrate_pretrained
+
+    cal = calibrate_pretrained(args.model, args.data)
+    print(f"{args.model}: factor {cal['factor']:.3g} (the {cal['quantile']:.1%} quantile of "
+          f"L_tot / (E + D) on {cal['n']} potentials); median estimate "
+          f"{cal['estimate_quantiles'][5]:.3g}, median L_tot {cal['L_quantiles'][5]:.3g}; "
+          f"network solve {1e6 * cal['neural_seconds']:.0f} µs")
 
 
 def _arch_overrides(items):
@@ -218,6 +267,24 @@ def build_parser():
     ex.add_argument("--command", action="append",
                     help="a command that regenerates it (repeatable, stored in metrics.json)")
     ex.set_defaults(run=_export)
+    ca = sub.add_parser("calibrate", help="calibrate a shipped model's error estimate for "
+                        "solve (writes nh_operators/weights/NAME/calibration.json)")
+    ca.add_argument("--model", required=True, help="a shipped model")
+    ca.add_argument("--data", required=True, help="labelled .h5 from neither the training "
+                    "nor the test seed (e.g. generate --size 2000 --seed 2718)")
+    ca.set_defaults(run=_calibrate)
+    pr = sub.add_parser("predict", help="one potential typed as a formula: the trajectory "
+                        "table and figure")
+    pr.add_argument("--potential", required=True, help="an expression in q, e.g. "
+                    "'8*(q-0.5)**2', or a physical potential's name (sho, ...)")
+    pr.add_argument("--model", default="auto", help="auto (default), classical, an "
+                    "integrator, or a shipped model (deeponet, traonet, ...)")
+    pr.add_argument("--times", type=float, nargs="+", help="query times (default: the "
+                    "100-point grid on [0, 2])")
+    pr.add_argument("--tol", type=float, help="target L_tot (auto picks the method)")
+    pr.add_argument("--rows", type=int, default=20, help="table rows at most (default 20)")
+    pr.add_argument("--out", help="figure file (.png, .pdf, .svg)")
+    pr.set_defaults(run=_predict)
     return parser
 
 

@@ -256,5 +256,5 @@ def parse_potential(text, *, name=None):
     from .potentials import check_bounded
 
     expr = parse_expression(text)
-    check_bounded(expr, name=f"V = {text}")
+    check_bounded(expr, name=f"V = {text}: V")
     return AnalyticPotential(name or text, text, expr, expr.derivative)

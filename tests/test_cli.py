@@ -1,3 +1,6 @@
+import re
+
+import numpy as np
 import pytest
 
 from nh_operators.cli import main
@@ -58,3 +61,36 @@ def test_train_writes_a_run_directory_and_resumes(tmp_path, capsys):
     assert main(args + ["--resume"]) == 0  # already complete: nothing left to do
     assert main(args[:-4] + ["--arch", "widht=3", "--out", str(tmp_path / "r2")]) == 2
     assert "no argument(s) ['widht']" in capsys.readouterr().err
+
+
+def test_predict_prints_the_table_and_writes_the_figure(tmp_path, capsys):
+    fig = tmp_path / "fig.png"
+    assert main(["predict", "--model", "deeponet", "--potential", "8*(q-0.5)**2",
+                 "--times", "0.5", "1.0", "1.5", "--out", str(fig)]) == 0
+    out = capsys.readouterr().out
+    assert "V(q) = 8*(q-0.5)**2" in out and "method: deeponet (neural; forced)" in out
+    rows = [line.split() for line in out.splitlines() if re.match(r"\s+\d", line)]
+    assert [r[0] for r in rows] == ["0.5000", "1.0000", "1.5000"]
+    # the SHO in disguise: q(t) = (1 - cos 4t) / 2; DeepONet is within a few 1e-2
+    for r in rows:
+        assert abs(float(r[1]) - (1 - np.cos(4 * float(r[0]))) / 2) < 0.1
+    assert fig.stat().st_size > 10_000 and fig.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_predict_with_tol_uses_the_classical_solver_beyond_t_2(capsys):
+    assert main(["predict", "--potential", "sho", "--times", "0.5", "3.0",
+                 "--tol", "1e-8"]) == 0
+    out = capsys.readouterr().out
+    assert "method: rk4 (classical" in out and "tol 1e-08" in out
+    q = [float(line.split()[1]) for line in out.splitlines() if re.match(r"\s+\d", line)]
+    np.testing.assert_allclose(q, (1 - np.cos(4 * np.array([0.5, 3.0]))) / 2, atol=1e-4)
+
+
+@pytest.mark.parametrize("expr, message", [
+    ("__import__('os').system('ls')", "cannot use .__import__.*not an allowed function"),
+    ("q**2", r"V\(0\) = 0, but a bounded potential needs"),
+    ("2 - q*(1-q) +", "invalid syntax"),
+])
+def test_predict_rejects_unsafe_or_unbounded_potentials(expr, message, capsys):
+    assert main(["predict", "--potential", expr]) == 2
+    assert re.search(message, capsys.readouterr().err)

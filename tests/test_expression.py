@@ -60,7 +60,7 @@ def test_anything_else_is_a_clear_error(text, match):
 
 
 def test_bounded_conditions_are_checked():
-    with pytest.raises(ValueError, match=r"V = 8\*q\(0\) = 0, but a bounded"):
+    with pytest.raises(ValueError, match=r"V = 8\*q: V\(0\) = 0, but a bounded"):
         parse_potential("8*q")
     with pytest.raises(ValueError, match="V < V0"):
         parse_potential("2 + sin(pi*q)")
