@@ -124,11 +124,11 @@ def _classical_seconds(calibration, tol):
     return float(np.interp(-np.log10(tol), -tols, calibration["classical_seconds"]))
 
 
-def _choose(tol, values, t):
-    """The network to try first, or None, with the reason in words. ``values()`` gives
-    the sensor values; the costs are weighed first, as they need no evaluation of V."""
+@functools.lru_cache(maxsize=256)
+def _ranked(tol, calibrations):
+    """(best network or None, its expected seconds and share, notes) for ``tol``; cached
+    per tolerance and calibration (``calibrations``: ids, so a new one is seen)."""
     from .pretrained import available_pretrained
-    from .stability import domain_violations
 
     best, notes = None, []
     for name in available_pretrained():
@@ -144,6 +144,22 @@ def _choose(tol, values, t):
                          f"expected {1e6 * expected:.0f} µs against {1e6 * t_cls:.0f} µs")
         elif best is None or expected < best[1]:
             best = (name, expected, share)
+    return best, notes
+
+
+@functools.lru_cache(maxsize=1)
+def _networks():
+    from .pretrained import available_pretrained
+
+    return tuple(available_pretrained())
+
+
+def _choose(tol, values, t):
+    """The network to try first, or None, with the reason in words. ``values()`` gives
+    the sensor values; the costs are weighed first, as they need no evaluation of V."""
+    from .stability import domain_violations
+
+    best, notes = _ranked(tol, tuple(id(_model(n).calibration) for n in _networks()))
     if best is None:
         return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
@@ -197,13 +213,11 @@ def solve(potential, t, *, tol=None, method="auto", dV=None):
 def _solve(potential, t, tol, method, dV, start):
     if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
         raise ValueError(f"tol must be a positive number or None, got {tol!r}")
-    from .pretrained import available_pretrained
-
-    networks = available_pretrained()
+    networks = _networks()
     classical = {"classical": "rk4", **{m: m for m in ORDERS}}
     if method != "auto" and method not in classical and method not in networks:
         raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
-                         f"integrator {sorted(ORDERS)} or a shipped model {networks}")
+                         f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
     pot, information = as_potential(potential, dV)
     t = np.asarray(t, dtype=np.float64).reshape(-1)
     if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
