@@ -156,6 +156,6 @@ def classical_physical_table(t=TIMES, baselines=None, repeats=3):
                     q, p = run(pot.V(SENSORS), t)
                 times.append(time.perf_counter() - start)
             loss = loss_per_sample(q, p, *refs[name])["L_tot"]
-            row[name] = {"L_tot": float(loss), "seconds": float(np.median(times))}
+            row[name] = {"L_tot": float(np.squeeze(loss)), "seconds": float(np.median(times))}
         table[method] = row
     return table
