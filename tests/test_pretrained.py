@@ -10,21 +10,44 @@ from nh_operators.pretrained import (WEIGHTS, available_pretrained, export_pretr
                                      pretrained)
 
 
-def test_shipped_deeponet_loads_offline_with_its_metrics():
-    assert "deeponet" in available_pretrained()
-    model = pretrained("deeponet")
-    assert model.name == "deeponet" and model.config["epochs"] == model.metrics["epochs"]
-    shipped = load_checkpoint(WEIGHTS / "deeponet")
+@pytest.mark.parametrize("name", available_pretrained())
+def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
+    model = pretrained(name)
+    assert model.name == name and model.metrics["model"] == name
+    shipped = load_checkpoint(WEIGHTS / name)
     assert model.metrics["data_checksum"] == shipped["data_checksum"]
     assert shipped["data_checksum"].startswith("sha256:") and "optimizer" not in shipped
-    assert any(c.startswith("nh-operators train --model deeponet") for c in
-               model.metrics["commands"])
+    commands = model.metrics["commands"]
+    assert any(c.startswith(f"nh-operators train --model {name}") for c in commands)
+    assert any(c.startswith("nh-operators evaluate") for c in commands)
     V = nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None]
     q, p = model(V, nh.TIMES)
-    loss = 0.5 * (np.mean((q[0] - nh.PHYSICAL_POTENTIALS["sho"].exact(nh.TIMES)[0]) ** 2)
-                  + np.mean((p[0] - nh.PHYSICAL_POTENTIALS["sho"].exact(nh.TIMES)[1]) ** 2))
+    q_ref, p_ref = nh.PHYSICAL_POTENTIALS["sho"].exact(nh.TIMES)
+    loss = 0.5 * (np.mean((q[0] - q_ref) ** 2) + np.mean((p[0] - p_ref) ** 2))
     # the shipped metrics say what this model scores on the SHO: check it reproduces
-    assert loss == pytest.approx(model.metrics["evaluation"]["physical"]["sho"], rel=1e-5)
+    assert loss == pytest.approx(model.metrics["evaluation"]["physical"]["sho"], rel=1e-4)
+
+
+@pytest.mark.parametrize("name", available_pretrained())
+def test_shipped_model_is_calibrated_for_solve(name):
+    cal = json.loads((WEIGHTS / name / "calibration.json").read_text())
+    assert cal["n"] >= 1000 and 0 < cal["factor"] < 100 and cal["quantile"] == 0.995
+    # calibrated on potentials from neither the training set nor the test set
+    assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
+    assert cal["estimate_quantiles"] == sorted(cal["estimate_quantiles"])
+    assert len(cal["classical_seconds"]) == len(cal["classical_tols"])
+
+
+def test_calibrate_pretrained_without_writing(tmp_path):
+    from nh_operators.data import generate_dataset
+    from nh_operators.solve_calibration import calibrate_pretrained
+
+    path = WEIGHTS / "deeponet" / "calibration.json"
+    before = path.read_bytes()
+    cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
+                               n_timing=2, write=False)
+    assert path.read_bytes() == before and cal["n"] == 30
+    assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
 
 
 def test_shipped_weights_stay_small():
