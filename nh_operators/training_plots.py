@@ -7,7 +7,7 @@ import numpy as np
 
 from .plots import _figure
 
-__all__ = ["read_history", "plot_training_curves"]
+__all__ = ["read_history", "plot_training_curves", "minutes_to_reach"]
 
 
 def read_history(run_dir):
@@ -63,3 +63,41 @@ def plot_training_curves(runs, *, title=None, goals=None):
     if title is not None:
         ax.set_title(title)
     return fig
+
+
+def minutes_to_reach(history, goal, *, fraction=0.5):
+    """Extrapolate when the validation loss would reach ``goal`` at the current pace.
+
+    Fits log(best validation loss so far) = a + b·log(minutes) to the last ``fraction``
+    of the epochs and solves for the goal. A rough guide, not a promise: the fit cannot
+    know about plateaus, and a schedule that decays its learning rate towards the end
+    bends the curve down (then the fit is optimistic for a longer run of the same
+    schedule shape, pessimistic for continuing this one).
+
+    Args:
+        history: dict of :func:`read_history` (or a run directory).
+        goal: the loss to reach.
+        fraction: share of the epochs (the last ones) in the fit.
+
+    Returns:
+        (minutes, slope b): minutes is the total training time at which the fit reaches
+        ``goal`` (already spent if the run is there), ``inf`` when the loss is not
+        falling (b ≥ 0).
+
+    Example:
+        >>> m = np.linspace(1, 10, 10)
+        >>> minutes, b = minutes_to_reach({"seconds": 60 * m, "val_loss": 2 / m}, 1e-3)
+        >>> round(minutes), round(b, 6)
+        (2000, -1.0)
+    """
+    h = history if isinstance(history, dict) else read_history(history)
+    minutes = np.asarray(h["seconds"], dtype=float) / 60.0
+    best = np.minimum.accumulate(np.asarray(h["val_loss"], dtype=float))
+    if best[-1] <= goal:
+        return float(minutes[np.argmax(best <= goal)]), 0.0
+    k = max(2, int(round(fraction * len(best))))
+    b, a = np.polyfit(np.log(minutes[-k:]), np.log(best[-k:]), 1)
+    if b > -1e-9:  # flat (up to rounding) or rising
+        return float("inf"), float(b)
+    with np.errstate(over="ignore"):
+        return float(np.exp((np.log(goal) - a) / b)), float(b)

@@ -33,3 +33,15 @@ def test_errors(tmp_path):
         read_history(empty)
     with pytest.raises(FileNotFoundError):
         read_history(tmp_path / "missing")
+
+
+def test_minutes_to_reach_extrapolates_a_power_law_and_sees_a_plateau():
+    from nh_operators.training_plots import minutes_to_reach
+
+    m = np.linspace(1, 20, 20)
+    minutes, slope = minutes_to_reach({"seconds": 60 * m, "val_loss": 0.5 * m**-2.0}, 5e-5)
+    assert slope == pytest.approx(-2.0) and minutes == pytest.approx(100.0)
+    # already reached: the first time it was
+    assert minutes_to_reach({"seconds": 60 * m, "val_loss": 0.5 * m**-2.0}, 0.1)[0] == 3.0
+    flat = {"seconds": 60 * m, "val_loss": np.full(20, 0.01)}
+    assert minutes_to_reach(flat, 1e-3) == (float("inf"), pytest.approx(0.0, abs=1e-12))
