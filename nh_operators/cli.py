@@ -149,7 +149,8 @@ def _train(args):
         upper_bound=args.upper_bound, infimum_lr=args.infimum_lr, beta=args.beta,
         scheduler=args.scheduler, dtype=args.dtype, device=args.device, amp=args.amp)
     net, history = train(config, args.data, args.out, resume=args.resume,
-                         progress=not args.quiet, max_minutes=args.max_minutes)
+                         progress=not args.quiet, max_minutes=args.max_minutes,
+                         stop_after=args.stop_after)
     last = history[-1]
     print(f"{args.model} ({args.preset}, {count_parameters(net)} parameters): "
           f"{last['epoch']} epochs in {last['seconds'] / 60:.1f} min, train loss "
@@ -259,6 +260,9 @@ def build_parser():
     tr.add_argument("--max-minutes", type=float,
                     help="wall-time budget over the whole run; stops after the epoch "
                          "that passes it (checkpoint kept, --resume continues)")
+    tr.add_argument("--stop-after", type=int, metavar="EPOCH",
+                    help="stop after this epoch of the --epochs schedule (reproduces a "
+                         "run that --max-minutes cut)")
     tr.add_argument("--arch", action="append", metavar="KEY=VALUE",
                     help="architecture override, repeatable (e.g. --arch d_model=64)")
     tr.add_argument("--batch-size", type=int, default=100)

@@ -246,7 +246,7 @@ def _load_data(data):
 
 
 def train(config, data, out, *, resume=False, progress=True, epoch_callback=None,
-          max_minutes=None):
+          max_minutes=None, stop_after=None):
     """Train a network through ``dde.Model`` and write a run directory.
 
     Args:
@@ -264,6 +264,8 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
             parts included). Training stops after the first epoch that ends past it,
             with that epoch's checkpoint saved; ``--resume`` with a larger budget
             continues the same schedule. Not part of the config. ``None``: no limit.
+        stop_after: stop after this epoch, with the schedule of ``config.epochs`` (how a
+            run cut by ``max_minutes`` is reproduced on another machine).
 
     Returns:
         (network, history): the trained network (train mode) and a list of per-epoch
@@ -283,6 +285,10 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
     cfg = config.resolved()
     if max_minutes is not None and not max_minutes > 0:
         raise ValueError(f"max_minutes must be positive, got {max_minutes}")
+    if stop_after is not None and not (int(stop_after) == stop_after and
+                                       1 <= stop_after <= cfg["epochs"]):
+        raise ValueError(f"stop_after must be an epoch in [1, {cfg['epochs']}], got "
+                         f"{stop_after}")
     device = resolve_device(cfg["device"])
     if cfg["amp"] and device.type != "cuda":
         raise ValueError("amp (float16 autocast) is only supported on CUDA")
@@ -324,7 +330,8 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
         run.max_seconds = None if max_minutes is None else 60.0 * max_minutes
         if state is not None:
             _restore(run, state)
-        remaining = cfg["epochs"] * steps - data_obj.cursor
+        last = cfg["epochs"] if stop_after is None else int(stop_after)
+        remaining = max(0, last * steps - data_obj.cursor)
         if run.over_budget():
             log.warning("the run has used %.1f of its %.1f minutes; nothing to do",
                         run.history[-1]["seconds"] / 60, max_minutes)

@@ -97,6 +97,12 @@ def test_wall_time_budget_stops_after_an_epoch_and_resume_finishes_the_schedule(
     assert [h["val_loss"] for h in rest] == [h["val_loss"] for h in full]
     with pytest.raises(ValueError, match="max_minutes must be positive"):
         nh.train(cfg("deeponet"), small, tmp_path / "bad", max_minutes=0)
+    # stop_after reproduces the cut run: same epochs, same weights
+    _, cut = nh.train(cfg("deeponet"), small, tmp_path / "stop", progress=False,
+                      stop_after=1)
+    assert [h["val_loss"] for h in cut] == [part[0]["val_loss"]]
+    with pytest.raises(ValueError, match=r"stop_after must be an epoch in \[1, 4\]"):
+        nh.train(cfg("deeponet"), small, tmp_path / "bad", stop_after=5)
 
 
 def test_resume_refuses_another_config_or_dataset(small, tmp_path):
