@@ -24,7 +24,8 @@ from .checkpoint import load_model  # noqa: E402
 from .inference import predict  # noqa: E402
 from .models import MODELS, build_model, count_parameters  # noqa: E402
 from .operator_data import OperatorData  # noqa: E402
-from .schedulers import ExpHyperbolicLR, HyperbolicLR  # noqa: E402
+from .schedulers import ExpHyperbolicLR, HyperbolicLR, adjusted_infimum_lr  # noqa: E402
+from .unbounded import ExtendedPotential, extend_monotone  # noqa: E402
 from .train import TrainConfig, TrainingDiverged, train  # noqa: E402
 from .resolution import ResolutionWarning  # noqa: E402
 from .methods import CLASSICAL_METHODS, ClassicalMethod, NeuralMethod  # noqa: E402
@@ -55,6 +56,9 @@ __all__ = [
     "count_parameters",
     "OperatorData",
     "ExpHyperbolicLR",
+    "adjusted_infimum_lr",
+    "extend_monotone",
+    "ExtendedPotential",
     "HyperbolicLR",
     "TrainConfig",
     "TrainingDiverged",

@@ -24,7 +24,7 @@ import math
 
 from torch.optim.lr_scheduler import LRScheduler
 
-__all__ = ["HyperbolicLR", "ExpHyperbolicLR"]
+__all__ = ["HyperbolicLR", "ExpHyperbolicLR", "adjusted_infimum_lr"]
 
 
 class _Hyperbolic(LRScheduler):
@@ -112,3 +112,43 @@ class ExpHyperbolicLR(_Hyperbolic):
 
     def _rate(self, lr0, dh):
         return lr0 * (lr0 / self.infimum_lr) ** dh
+
+
+def adjusted_infimum_lr(lr, infimum_lr, upper_bound, epochs):
+    """The paper's infimum for ExpHyperbolicLR on a larger dataset (its appendix).
+
+    With more steps per epoch, a schedule tuned for ``epochs`` epochs ends at a learning
+    rate η_N(N) below its asymptote l(N) = η0 (η_inf/η0)^(N/U); sensitive models then
+    diverge. The adjusted schedule keeps η0, U and N and moves the infimum so that its
+    asymptote at N is the geometric mean of the two:
+
+        log η̃_inf = ½ [log η0 + log η_inf + (U/N)(log η_N(N) − log η0)],
+
+    with log η_N(N) = log η0 − h(0) log(η0/η_inf), h(0) = sqrt(N/U (2 − N/U)).
+
+    Args:
+        lr: initial learning rate η0.
+        infimum_lr: the tuned infimum η_inf.
+        upper_bound: U (≥ epochs).
+        epochs: N, the epochs the schedule was tuned for (the paper's N1).
+
+    Returns:
+        η̃_inf, the infimum to train the larger dataset with.
+
+    Raises:
+        ValueError: for non-positive rates, or U < N.
+
+    Example:
+        >>> round(adjusted_infimum_lr(1e-3, 1e-5, 300, 250), 10)
+        6.5582e-06
+    """
+    if not (lr > 0 and infimum_lr > 0):
+        raise ValueError(f"learning rates must be positive, got {lr} and {infimum_lr}")
+    if not (epochs >= 1 and upper_bound >= epochs):
+        raise ValueError(f"need 1 ≤ epochs ≤ upper_bound, got epochs={epochs}, "
+                         f"upper_bound={upper_bound}")
+    n, u = float(epochs), float(upper_bound)
+    h0 = math.sqrt(n / u * (2.0 - n / u))
+    log_end = math.log(lr) - h0 * math.log(lr / infimum_lr)  # log η_N(N)
+    return math.exp(0.5 * (math.log(lr) + math.log(infimum_lr)
+                           + u / n * (log_end - math.log(lr))))

@@ -97,3 +97,26 @@ def test_state_dict_round_trip():
 def test_bad_arguments_are_named(kwargs, match):
     with pytest.raises(ValueError, match=match):
         HyperbolicLR(_opt(), **kwargs)
+
+
+def test_adjusted_infimum_matches_hand_computation():
+    from nh_operators.schedulers import adjusted_infimum_lr
+
+    # MambONet's tuned values (paper, TPE table): eta0 = 9.7931e-4, eta_inf = 1.0310e-5,
+    # U = 350. By hand, N = 250: h(0) = sqrt(250/350 (2 - 250/350)) = 0.958315;
+    # log eta_N(N) - log eta0 = -0.958315 * ln(94.9864) = -4.363911;
+    # log of the result = (ln 9.7931e-4 + ln 1.0310e-5 + 1.4 * -4.363911) / 2 = -12.260267
+    assert adjusted_infimum_lr(9.7931e-4, 1.0310e-5, 350, 250) == pytest.approx(
+        math.exp(-12.260267), rel=1e-6)
+    assert adjusted_infimum_lr(9.7931e-4, 1.0310e-5, 350, 250) == pytest.approx(4.73624e-6,
+                                                                              rel=1e-5)
+    # N = 50: h(0) = 0.515079, 7 * (-0.515079 * 4.553734) = -16.418721, so
+    # (-6.928628 - 11.482388 - 16.418721) / 2 = -17.414890
+    assert adjusted_infimum_lr(9.7931e-4, 1.0310e-5, 350, 50) == pytest.approx(
+        math.exp(-17.414890), rel=1e-5)
+    # with N = U the schedule ends on its asymptote: nothing to adjust
+    assert adjusted_infimum_lr(1e-3, 1e-5, 300, 300) == pytest.approx(1e-5, rel=1e-12)
+    with pytest.raises(ValueError, match="1 ≤ epochs ≤ upper_bound"):
+        adjusted_infimum_lr(1e-3, 1e-5, 200, 250)
+    with pytest.raises(ValueError, match="must be positive"):
+        adjusted_infimum_lr(0.0, 1e-5, 300, 250)
