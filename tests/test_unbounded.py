@@ -1,6 +1,5 @@
 """extend_monotone: the paper's free fall exactly, other monotone potentials, and errors."""
 
-
 import numpy as np
 import pytest
 
