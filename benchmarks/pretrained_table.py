@@ -1,0 +1,104 @@
+"""The shipped models' accuracy table, next to the paper's, from their own files.
+
+Reads ``nh_operators/weights/NAME/{metrics.json, history.csv, config.json,
+calibration.json}`` (written by ``nh-operators export`` and ``calibrate``; the commands
+that regenerate each are in its metrics.json) and prints:
+
+- the test-set table (mean, std, median, IQR of L_tot on the 4,000-potential test set),
+  with epochs, training minutes and the device, and the paper's standard-dataset mean;
+- the physical-potential table, with the paper's values (from its extended-data models);
+- for each model the minutes its validation curve would need to reach the paper's
+  value at its present pace (``nh_operators.training_plots.minutes_to_reach``).
+
+With ``--figure FILE.png`` it also draws the loss-against-training-time curves.
+
+Run it with::
+
+    python benchmarks/pretrained_table.py [--figure docs/training_curves.png]
+"""
+
+import argparse
+import json
+
+from nh_operators.pretrained import WEIGHTS, available_pretrained
+from nh_operators.training_plots import minutes_to_reach, plot_training_curves, read_history
+
+#: The paper's standard-dataset (10,000 potentials) test means, and its physical-potential
+#: results for the same models (its tables).
+PAPER_TEST = {"deeponet": 5.25e-2, "traonet": 1.7e-4, "varonet": 5.2e-5, "mambonet": 3.8e-5}
+PHYSICAL = ["sho", "double_well", "morse", "mff", "smff"]
+#: The paper's physical-potential table (its models trained on the extended dataset,
+#: 100,000 potentials, as its text says; SMFF at alpha = 20 there and here).
+PAPER_PHYSICAL = {
+    "deeponet": [2.4951e-4, 8.9770e-2, 4.7225e-2, 2.5406e-2, 1.5242e-2],
+    "traonet": [1.0145e-6, 2.2207e-6, 7.6594e-6, 1.0228e-4, 3.3919e-5],
+    "varonet": [1.9729e-7, 8.8354e-7, 2.3114e-6, 2.0465e-4, 7.2018e-5],
+    "mambonet": [1.4197e-7, 4.3837e-7, 1.3451e-6, 1.3426e-4, 1.9754e-6],
+}
+
+
+def rows():
+    out = []
+    for name in available_pretrained():
+        folder = WEIGHTS / name
+        metrics = json.loads((folder / "metrics.json").read_text())
+        config = json.loads((folder / "config.json").read_text())
+        history = read_history(folder)
+        evaluation = metrics.get("evaluation", {})
+        goal = PAPER_TEST.get(name)
+        reach = minutes_to_reach(history, goal) if goal else (None, None)
+        out.append({"name": name, "preset": config["preset"], "epochs": int(history["epoch"][-1]),
+                    "schedule": config["epochs"], "minutes": history["seconds"][-1] / 60,
+                    "device": evaluation.get("device", "?"), "test": evaluation.get("test", {}),
+                    "physical": evaluation.get("physical", {}), "paper": goal,
+                    "reach": reach, "history": history})
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--figure", help="write the training curves here")
+    args = ap.parse_args()
+    table = rows()
+    print("| model | epochs (schedule) | training min | mean L_tot | std | median | IQR | "
+          "paper (standard data) |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for r in table:
+        t = r["test"]
+        paper = f"{r['paper']:.2e}" if r["paper"] else "–"
+        print(f"| {r['name']} ({r['preset']}) | {r['epochs']} ({r['schedule']}) | "
+              f"{r['minutes']:.1f} | {t.get('mean', float('nan')):.2e} | "
+              f"{t.get('std', float('nan')):.2e} | {t.get('median', float('nan')):.2e} | "
+              f"{t.get('iqr', float('nan')):.2e} | {paper} |")
+    print(f"\ntraining and evaluation device: {', '.join(sorted({r['device'] for r in table}))}")
+    print("\n| model | " + " | ".join(PHYSICAL) + " |")
+    print("|---|" + "---:|" * len(PHYSICAL))
+    for r in table:
+        print(f"| {r['name']} | " + " | ".join(f"{r['physical'].get(p, float('nan')):.2e}"
+                                               for p in PHYSICAL) + " |")
+        if r["name"] in PAPER_PHYSICAL:
+            print(f"| paper {r['name']} (extended data) | "
+                  + " | ".join(f"{v:.2e}" for v in PAPER_PHYSICAL[r["name"]]) + " |")
+    print("\nMinutes of training (this machine, this schedule's pace) at which a power-law "
+          "fit of the last half of the validation curve reaches the paper's test mean:")
+    for r in table:
+        if r["paper"]:
+            minutes, slope = r["reach"]
+            if minutes <= r["minutes"]:
+                print(f"- {r['name']}: reached after {minutes:.1f} min")
+            else:
+                print(f"- {r['name']}: {minutes:,.0f} min (slope {slope:.2f}; trained "
+                      f"{r['minutes']:.0f} min)")
+    if args.figure:
+        from nh_operators.report_files import save_figure
+
+        fig = plot_training_curves({r["name"]: r["history"] for r in table},
+                                   title="shipped models: loss against training time",
+                                   goals={f"paper {k}": v for k, v in PAPER_TEST.items()
+                                          if k in {r["name"] for r in table}})
+        save_figure(fig, args.figure)
+        print(f"\nfigure: {args.figure}")
+
+
+if __name__ == "__main__":
+    main()
