@@ -10,7 +10,8 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
    :func:`~nh_operators.domain_violations`; the times inside [0, 2]), and it is expected
    to be cheaper: with P the share of its calibration set whose calibrated estimate met
    ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
-   T_classical(tol).
+   T_classical(tol), where T_classical is the one for this kind of input (a generator
+   B-spline, sensor values, or a formula, which the solver integrates in Python).
 3. The cheapest candidate predicts on :data:`TIMES`; its estimate is ``factor · (E + D)``
    (energy residual plus Picard defect, :mod:`nh_operators.estimate`). At or below
    ``tol`` its prediction, interpolated to ``t`` by cubic splines, is returned;
@@ -119,15 +120,30 @@ def _neural_solve(name, pot, information, t):
     return CubicSpline(TIMES, q[0])(t), CubicSpline(TIMES, p[0])(t), factor * raw
 
 
-def _classical_seconds(calibration, tol):
+#: Which of the calibration's classical timings applies to a kind of input.
+_TIMINGS = {"bspline": "classical_seconds", "sensors": "classical_seconds_sensors",
+            "formula": "classical_seconds_formula"}
+
+
+def _input_kind(pot, information):
+    from .potentials import BoundedPotential
+
+    if information == "sensors":
+        return "sensors"
+    return "bspline" if isinstance(pot, BoundedPotential) else "formula"
+
+
+def _classical_seconds(calibration, tol, kind="bspline"):
     tols = np.log10(calibration["classical_tols"])
-    return float(np.interp(-np.log10(tol), -tols, calibration["classical_seconds"]))
+    seconds = calibration.get(_TIMINGS[kind], calibration["classical_seconds"])
+    return float(np.interp(-np.log10(tol), -tols, seconds))
 
 
 @functools.lru_cache(maxsize=256)
-def _ranked(tol, calibrations):
-    """(best network or None, its expected seconds and share, notes) for ``tol``; cached
-    per tolerance and calibration (``calibrations``: ids, so a new one is seen)."""
+def _ranked(tol, kind, calibrations):
+    """(best network or None, its expected seconds and share, notes) for ``tol`` and a
+    kind of input (:data:`_TIMINGS`); cached per tolerance, kind and calibration
+    (``calibrations``: ids, so a new one is seen)."""
     from .pretrained import available_pretrained
 
     best, notes = None, []
@@ -137,7 +153,7 @@ def _ranked(tol, calibrations):
             notes.append(f"{name}: not calibrated")
             continue
         share = acceptance_rate(cal, tol)
-        t_cls = _classical_seconds(cal, tol)
+        t_cls = _classical_seconds(cal, tol, kind)
         expected = cal["neural_seconds"] + (1.0 - share) * t_cls
         if expected >= t_cls:
             notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
@@ -154,12 +170,12 @@ def _networks():
     return tuple(available_pretrained())
 
 
-def _choose(tol, values, t):
+def _choose(tol, values, t, kind):
     """The network to try first, or None, with the reason in words. ``values()`` gives
     the sensor values; the costs are weighed first, as they need no evaluation of V."""
     from .stability import domain_violations
 
-    best, notes = _ranked(tol, tuple(id(_model(n).calibration) for n in _networks()))
+    best, notes = _ranked(tol, kind, tuple(id(_model(n).calibration) for n in _networks()))
     if best is None:
         return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
@@ -227,7 +243,8 @@ def _solve(potential, t, tol, method, dV, start):
     if method in networks:
         return _forced_network(method, pot, information, t, tol, start)
     if method == "auto" and tol is not None:
-        name, reason = _choose(tol, lambda: _sensor_values(pot, information), t)
+        name, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
+                               _input_kind(pot, information))
         if name is not None:
             t0 = time.perf_counter()
             q, p, estimate = neural_solve(name, pot, information, t)

@@ -13,10 +13,11 @@ import time
 
 import numpy as np
 
-from ._constants import TIMES
+from ._constants import SENSORS, TIMES
 from .checkpoint import write_atomic
 from .classical_solve import adaptive_solve
 from .estimate import calibrate
+from .physical import PHYSICAL_POTENTIALS
 from .auto_solve import CALIBRATION, _model, neural_solve
 
 __all__ = ["calibrate_pretrained", "CLASSICAL_TOLS"]
@@ -51,7 +52,9 @@ def calibrate_pretrained(name, dataset, *, n_timing=30, write=True):
         the calibration dict: :func:`~nh_operators.estimate.calibrate`'s keys plus
         ``neural_seconds`` (one network solve on :data:`TIMES`, estimate included),
         ``classical_tols`` / ``classical_seconds`` (the classical solve of the exact
-        potential on :data:`TIMES` at each tolerance) and ``device``.
+        potential on :data:`TIMES` at each tolerance), ``classical_seconds_sensors``
+        (from the sensor values), ``classical_seconds_formula`` (SHO, double well and
+        Morse as formulas, integrated in Python) and ``device``.
     """
     from .data import load_dataset
     from .pretrained import WEIGHTS
@@ -65,9 +68,14 @@ def calibrate_pretrained(name, dataset, *, n_timing=30, write=True):
     result["neural_seconds"] = _median_seconds(
         lambda pot: neural_solve(name, pot, "exact V", TIMES), pots)
     result["classical_tols"] = CLASSICAL_TOLS
-    result["classical_seconds"] = [
-        _median_seconds(lambda pot: adaptive_solve(pot, "exact V", TIMES, tol, "rk4"), pots)
-        for tol in CLASSICAL_TOLS]
+    sensors = [pot.V(SENSORS) for pot in pots]
+    formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
+    for key, items, information in (("classical_seconds", pots, "exact V"),
+                                     ("classical_seconds_sensors", sensors, "sensors"),
+                                     ("classical_seconds_formula", formulas, "exact V")):
+        result[key] = [_median_seconds(
+            lambda pot: adaptive_solve(pot, information, TIMES, tol, "rk4"), items)
+            for tol in CLASSICAL_TOLS]
     result["device"] = device_info("cpu")
     if write:
         path = WEIGHTS / name / CALIBRATION

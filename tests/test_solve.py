@@ -107,3 +107,17 @@ def test_solve_restores_thread_counts():
         nh.solve("sho", T, method="deeponet")
     nh.solve("sho", T, tol=1e-6)
     assert (torch.get_num_threads(), numba.get_num_threads()) == before
+
+
+def test_the_classical_cost_weighed_is_the_one_of_the_input_kind(monkeypatch, pots):
+    model = solve_module._model("deeponet")
+    cal = fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7])
+    cal["classical_seconds"] = [1e-6, 1e-6]          # B-spline potentials: cheap
+    cal["classical_seconds_formula"] = [1.0, 1.0]    # formulas: expensive
+    monkeypatch.setattr(model, "calibration", cal)
+    _, _, estimate = solve_module.neural_solve("deeponet", SHO, "exact V", T)
+    assert nh.solve("sho", T, tol=10 * estimate).kind == "neural"
+    bspline = nh.solve(pots[0], T, tol=1.0)
+    assert bspline.kind == "classical" and "expected" in bspline.reason
+    # sensor values fall back to the B-spline timing when the calibration has none
+    assert nh.solve(pots.V(nh.SENSORS)[0], T, tol=1.0).kind == "classical"
