@@ -3,12 +3,12 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN = $(VENV)/bin
 
-.PHONY: demo test test-all bench study clean
+.PHONY: demo test test-all docs bench study clean
 
 $(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test]"
+	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test,docs]"
 	touch $@
 
 demo: $(BIN)/.installed  ## classical solvers on the five physical potentials: table + figure
@@ -19,6 +19,9 @@ test: $(BIN)/.installed  ## the test suite CI runs (slow checks skipped)
 
 test-all: $(BIN)/.installed  ## also the slow checks
 	$(BIN)/python -m pytest -q --runslow
+
+docs: $(BIN)/.installed  ## this site in docs/_build/html, warnings as errors; runs the tutorials (about a minute)
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
 bench: $(BIN)/.installed  ## benchmark tables (minutes)
 	$(BIN)/python benchmarks/label_generation.py
@@ -31,3 +34,4 @@ study: $(BIN)/.installed  ## work precision on the test set (minutes); add netwo
 
 clean:
 	rm -rf $(VENV) demo bench build *.egg-info
+	rm -rf docs/_build docs/auto_examples docs/gen_modules docs/generated docs/sg_execution_times.rst

@@ -108,6 +108,9 @@ def smff(alpha):
     )
 
 
+#: The paper's five test potentials by name: ``"sho"``, ``"double_well"``, ``"morse"``,
+#: ``"mff"`` (mirrored free fall) and ``"smff"`` (its smoothed form, α = 20); each an
+#: :class:`AnalyticPotential`.
 PHYSICAL_POTENTIALS = {
     "sho": AnalyticPotential(
         "sho", "8 (q - 1/2)^2", lambda q: 8 * (q - 0.5) ** 2, lambda q: 16 * (q - 0.5), _sho_exact

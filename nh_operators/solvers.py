@@ -128,7 +128,7 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
         TypeError: if the potential has no ``dV``.
 
     Warns:
-        ResolutionWarning: when h·sqrt(max |V''|) exceeds :data:`RESOLUTION_FRACTION` of
+        ResolutionWarning: when ``h·sqrt(max |V''|)`` exceeds :data:`RESOLUTION_FRACTION` of
             the method's stability limit (the message names the substeps that suffice);
             for a formula, also when its force jumps (a kink) or its energy drifts by
             more than :data:`ENERGY_DRIFT_TOL`.
@@ -229,7 +229,7 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
         ValueError: if V breaks the bounded conditions or has the wrong shape.
 
     Warns:
-        ResolutionWarning: naming the rows where h·sqrt(max |V''|) of the spline
+        ResolutionWarning: naming the rows where ``h·sqrt(max |V''|)`` of the spline
             exceeds :data:`RESOLUTION_FRACTION` of the method's stability limit, or the
             energy drifts by more than :data:`ENERGY_DRIFT_TOL`, and the substeps that
             suffice. A feature narrower than the sensor spacing is invisible to the spline.
@@ -283,7 +283,7 @@ def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=F
         t: query times, shape (M,).
         rtol, atol: local error tolerances of the adaptive method (B-spline potentials).
         full_output: also return a dict with ``"energy_error"`` (max over t of
-            |p²/2 + V(q) - V0|, per potential) and ``"steps"`` (accepted steps, -1 if
+            ``|p²/2 + V(q) - V0|``, per potential) and ``"steps"`` (accepted steps, -1 if
             ``max_steps`` was exhausted; for scipy's DOP853, its function evaluations).
         max_steps: step budget per potential.
 
