@@ -99,21 +99,25 @@ def neural_solve(name, pot, information, t):
         return _neural_solve(name, pot, information, t)
 
 
-def _neural_solve(name, pot, information, t):
-    from scipy.interpolate import CubicSpline
-
+def neural_raw(name, pot, information):
+    """Model ``name``'s prediction (q, p) on :data:`TIMES` and its uncalibrated E + D."""
     from .inference import predict
 
-    model = _model(name)
     V = _sensor_values(pot, information)
-    q, p = predict(model.net, V[None], TIMES, batch_size=1)
+    q, p = predict(_model(name).net, V[None], TIMES, batch_size=1)
     if information == "sensors":
         force = sensor_force(V)
     else:
         force = (_rows(pot.V), _rows(pot.dV))
     raw = float(raw_estimate(q, p, *force)[0])
-    if not np.isfinite(raw):  # e.g. a prediction far outside [0, 1]
-        raw = np.inf
+    return q, p, (raw if np.isfinite(raw) else np.inf)  # inf: e.g. far outside [0, 1]
+
+
+def _neural_solve(name, pot, information, t):
+    from scipy.interpolate import CubicSpline
+
+    model = _model(name)
+    q, p, raw = neural_raw(name, pot, information)
     factor = model.calibration["factor"] if model.calibration else 1.0
     if np.array_equal(t, TIMES):
         return q[0], p[0], factor * raw

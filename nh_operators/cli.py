@@ -120,10 +120,11 @@ def _calibrate(args):
     from .solve_calibration import calibrate_pretrained
 
     cal = calibrate_pretrained(args.model, args.data)
-    print(f"{args.model}: factor {cal['factor']:.3g} (the {cal['quantile']:.1%} quantile of "
-          f"L_tot / (E + D) on {cal['n']} potentials); median estimate "
-          f"{cal['estimate_quantiles'][5]:.3g}, median L_tot {cal['L_quantiles'][5]:.3g}; "
-          f"network solve {1e6 * cal['neural_seconds']:.0f} µs")
+    print(f"{args.model}: factor {cal['factor']:.3g} = the larger 99.5 % quantile of L_tot / "
+          f"(E + D): {cal['factor_in_distribution']:.3g} on {cal['n']} generator potentials, "
+          f"{cal.get('factor_ood', 0):.3g} on {cal.get('n_ood', 0)} out-of-distribution ones; "
+          f"median estimate {cal['estimate_quantiles'][5]:.3g}, median L_tot "
+          f"{cal['L_quantiles'][5]:.3g}; network solve {1e6 * cal['neural_seconds']:.0f} µs")
 
 
 def _arch_overrides(items):

@@ -45,8 +45,11 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     path = WEIGHTS / "deeponet" / "calibration.json"
     before = path.read_bytes()
     cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
-                               n_timing=2, write=False)
+                               n_timing=2, n_ood=12, write=False)
     assert path.read_bytes() == before and cal["n"] == 30
+    # the factor covers both the in-distribution and the out-of-distribution inputs
+    assert 0 < cal["n_ood"] <= 12
+    assert cal["factor"] == max(cal["factor_in_distribution"], cal["factor_ood"])
     assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
 
 
