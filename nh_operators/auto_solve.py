@@ -148,10 +148,8 @@ def _ranked(tol, kind, calibrations):
     """(best network or None, its expected seconds and share, notes) for ``tol`` and a
     kind of input (:data:`_TIMINGS`); cached per tolerance, kind and calibration
     (``calibrations``: ids, so a new one is seen)."""
-    from .pretrained import available_pretrained
-
     best, notes = None, []
-    for name in available_pretrained():
+    for name in _networks():
         cal = _model(name).calibration
         if cal is None:
             notes.append(f"{name}: not calibrated")

@@ -19,6 +19,7 @@ import numpy as np
 from scipy import integrate
 
 from ._constants import V0 as DEFAULT_V0
+from .classical_solve import _Callable
 
 __all__ = ["ExtendedPotential", "extend_monotone"]
 
@@ -103,11 +104,7 @@ def extend_monotone(V, Q, dV=None, V0=DEFAULT_V0, *, d2V=None, name=None):
     name = name or getattr(V, "__name__", "V")
     name = "V" if name == "<lambda>" else name
     if dV is None:
-        h = 1e-3
-
-        def dV(q):
-            q = np.asarray(q, dtype=np.float64)
-            return (8 * (V(q + h) - V(q - h)) - (V(q + 2 * h) - V(q - 2 * h))) / (12 * h)
+        dV = _Callable(V).dV  # the solver's fourth-order central difference
 
     q = np.linspace(0.0, Q, _GRID)
     values = np.asarray(V(q), dtype=np.float64)
