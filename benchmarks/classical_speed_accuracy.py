@@ -33,8 +33,7 @@ import numba
 import numpy as np
 
 from nh_operators.data import PRESETS, generate_dataset, load_dataset
-from nh_operators.evaluate import loss_per_sample
-from nh_operators.methods import dop853_sensors
+from nh_operators.evaluation import dop853_sensors, loss_per_sample
 from nh_operators.solvers import integrate, integrate_sensors, paper_rk4
 
 GOAL_RK4_LOSS = 1e-10

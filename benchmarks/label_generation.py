@@ -22,7 +22,7 @@ import time
 import numba
 
 from nh_operators.data import PRESETS, generate_dataset
-from nh_operators.timing import cpu_name
+from nh_operators.evaluation import cpu_name
 
 SEED = PRESETS["standard"]["seed"]
 WARMUP_SIZE = 200

@@ -1,6 +1,6 @@
 """The shipped models' accuracy table, next to the paper's, from their own files.
 
-Reads ``nh_operators/weights/NAME/{metrics.json, history.csv, config.json,
+Reads ``nh_operators/solving/weights/NAME/{metrics.json, history.csv, config.json,
 calibration.json}`` (written by ``nh-operators export`` and ``calibrate``; the commands
 that regenerate each are in its metrics.json) and prints:
 
@@ -8,7 +8,7 @@ that regenerate each are in its metrics.json) and prints:
   with epochs, training minutes and the device, and the paper's standard-dataset mean;
 - the physical-potential table, with the paper's values (from its extended-data models);
 - for each model the minutes its validation curve would need to reach the paper's
-  value at its present pace (``nh_operators.training_plots.minutes_to_reach``).
+  value at its present pace (``nh_operators.training.minutes_to_reach``).
 
 With ``--figure FILE.png`` it also draws the loss-against-training-time curves.
 
@@ -20,8 +20,8 @@ Run it with::
 import argparse
 import json
 
-from nh_operators.pretrained import WEIGHTS, available_pretrained
-from nh_operators.training_plots import minutes_to_reach, plot_training_curves, read_history
+from nh_operators.solving import WEIGHTS, available_pretrained
+from nh_operators.training import minutes_to_reach, plot_training_curves, read_history
 
 #: The paper's standard-dataset (10,000 potentials) test means, and its physical-potential
 #: results for the same models (its tables).
@@ -90,7 +90,7 @@ def main():
                 print(f"- {r['name']}: {minutes:,.0f} min (slope {slope:.2f}; trained "
                       f"{r['minutes']:.0f} min)")
     if args.figure:
-        from nh_operators.report_files import save_figure
+        from nh_operators.evaluation import save_figure
 
         fig = plot_training_curves({r["name"]: r["history"] for r in table},
                                    title="shipped models: loss against training time",

@@ -18,7 +18,7 @@ import numpy as np
 
 import nh_operators as nh
 from nh_operators.data import load_dataset
-from nh_operators.evaluate import loss_per_sample
+from nh_operators.evaluation import loss_per_sample
 
 
 def main():

@@ -3,7 +3,7 @@
 For each tolerance, ``solve(potential, t, tol=tol)`` (method "auto") runs on test-set
 potentials (exact B-spline curves, each at a random subset of the 100 grid times, truth =
 the stored labels) and on potentials from outside the training distribution
-(``nh_operators.ood`` families and the five physical potentials, each at 1-100 random
+(``nh_operators.potentials.ood`` families and the five physical potentials, each at 1-100 random
 times in [0, 2], truth = DOP853 at 1e-13). Reported per group and tolerance: the share
 of inputs whose true L_tot ≤ tol (the contract asks ≥ 99 %), the worst true L_tot / tol,
 the share solved by a network, and the time against always calling the classical
@@ -25,9 +25,9 @@ import math
 import time
 
 import nh_operators as nh
-from nh_operators.checkpoint import write_atomic
-from nh_operators.contract import contract_cases, measure_contract, network_estimates
-from nh_operators.timing import device_info
+from nh_operators.evaluation import device_info
+from nh_operators.solving import contract_cases, measure_contract, network_estimates
+from nh_operators.training import write_atomic
 
 
 def contract_markdown(rows):

@@ -22,12 +22,14 @@ from pathlib import Path
 
 import nh_operators as nh
 from nh_operators.data import PRESETS, generate_dataset
-from nh_operators.evaluate import physical_reference
-from nh_operators.plots import plot_physical_potentials
-from nh_operators.report import EvaluationSettings
-from nh_operators.report_files import save_figure
-from nh_operators.study import evaluate_report
-from nh_operators.train import resolve_device
+from nh_operators.evaluation import (
+    EvaluationSettings,
+    evaluate_report,
+    physical_reference,
+    plot_physical_potentials,
+    save_figure,
+)
+from nh_operators.training import resolve_device
 
 
 def parse_args(argv=None):

@@ -1,6 +1,6 @@
 """A sphinx-gallery image scraper for figures built without pyplot.
 
-``nh_operators.plots`` returns :class:`matplotlib.figure.Figure` objects that pyplot
+``nh_operators.evaluation.plots`` returns :class:`matplotlib.figure.Figure` objects that pyplot
 does not know about (no global figure state), so sphinx-gallery's own matplotlib
 scraper cannot see them. This one looks for such figures among the example's
 variables after each code block and saves every one it has not shown yet. It must run

@@ -23,7 +23,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import nh_operators as nh
-from nh_operators.evaluate import loss_per_sample
+from nh_operators.evaluation import loss_per_sample
 
 sho = nh.PHYSICAL_POTENTIALS["sho"]
 q_true, p_true = sho.exact(nh.TIMES)

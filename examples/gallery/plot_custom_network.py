@@ -23,11 +23,11 @@ Wrapped in :class:`nh_operators.NeuralMethod`, it goes to
 # point is the contract.)
 import math
 
+import deepxde as dde
 import numpy as np
 import torch
 
 import nh_operators as nh  # selects DeepXDE's PyTorch backend before deepxde loads
-import deepxde as dde
 
 
 class FourierONet(dde.nn.pytorch.NN):
@@ -95,8 +95,7 @@ print("training loss, every 200 steps:", np.round(np.sum(loss_history.loss_train
 # potentials. Without ``cache_dir`` nothing is cached; with one, give your network a
 # new name (or ``fresh=True``) after changing it: a method that is not loaded from a
 # run directory is cached under its name alone.
-from nh_operators.plots import plot_work_precision
-from nh_operators.workprecision import work_precision_rows
+from nh_operators.evaluation import plot_work_precision, work_precision_rows
 
 methods = {
     "fourier_onet": nh.NeuralMethod(net, "fourier_onet"),

@@ -62,8 +62,11 @@ ax.legend()
 # :func:`nh_operators.evaluate_methods` scores every method on the same inputs (the
 # 100 sensor values) with the paper's per-sample loss, on the five physical
 # potentials, and times it. The settings here time only a few calls.
-from nh_operators.plots import plot_loss_histograms, plot_work_precision
-from nh_operators.workprecision import work_precision_rows
+from nh_operators.evaluation import (
+    plot_loss_histograms,
+    plot_work_precision,
+    work_precision_rows,
+)
 
 methods = {name: nh.NeuralMethod.from_run(run) for name, run in runs.items()}
 methods.update({name: nh.CLASSICAL_METHODS[name]

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 from tqdm.auto import tqdm
 
-from ._constants import SENSORS, TIMES
+from .._constants import SENSORS, TIMES
 
 FORMAT = "nh-operators-dataset/1"
 #: Per-sample arrays (leading axis N) and their trailing shapes and dtypes.

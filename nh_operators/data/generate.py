@@ -7,12 +7,11 @@ samples, tops up to exactly n, and streams chunks to an HDF5 file (see :mod:`._h
 
 import numpy as np
 
-from ._constants import SENSORS, TIMES, V0
+from .._constants import SENSORS, TIMES, V0
+from .._version import __version__
+from ..potentials import BoundedPotential, BoundedPotentialSpace
+from ..solvers import reference_solve
 from ._h5 import read_dataset, write_streamed
-from ._version import __version__
-from .potentials import BoundedPotential
-from .solvers import reference_solve
-from .space import BoundedPotentialSpace
 
 __all__ = ["PRESETS", "Dataset", "generate_dataset", "label_potentials", "load_dataset"]
 
@@ -36,7 +35,7 @@ def label_potentials(potentials, t=TIMES, *, rtol=LABEL_RTOL, energy_tol=ENERGY_
         potentials: a batched :class:`BoundedPotential` of N potentials.
         t: query times, shape (M,).
         rtol: tolerance of the reference solve (also its atol).
-        energy_tol: largest |p²/2 + V(q) - V0| accepted.
+        energy_tol: largest ``|p²/2 + V(q) - V0|`` accepted.
 
     Returns:
         (q, p, reasons): q and p of shape (N, M); reasons a list of N strings, empty for

@@ -20,8 +20,8 @@ import math
 import numpy as np
 import torch
 
-from ._backend import ensure_pytorch_backend
-from .inference import batched_forward
+from .._backend import ensure_pytorch_backend
+from ..models import batched_forward
 
 dde = ensure_pytorch_backend()
 
@@ -40,6 +40,9 @@ class OperatorData(dde.data.TripleCartesianProd):
         shuffle_seed: seed of the batch order.
         monitor_size: validation samples DeepXDE's own display evaluates (default 100).
 
+    Raises:
+        TypeError: for a Dataset (use ``ds.to_deepxde()``) or missing arrays.
+
     The batch size is the one given to ``dde.Model.train``; an integer only
     (DeepXDE's tuple batch size indexes the targets wrongly).
 
@@ -50,8 +53,13 @@ class OperatorData(dde.data.TripleCartesianProd):
         last_loss: the data loss of the last training step, as a float.
     """
 
-    def __init__(self, X_train, y_train, X_test, y_test, *, beta=0.0, shuffle_seed=0,
-                 monitor_size=100):
+    def __init__(self, X_train, y_train=None, X_test=None, y_test=None, *, beta=0.0,
+                 shuffle_seed=0, monitor_size=100):
+        if hasattr(X_train, "to_deepxde"):
+            raise TypeError("OperatorData takes arrays; a Dataset (generate_dataset, "
+                            "load_dataset) makes its own: ds.to_deepxde()")
+        if y_train is None or X_test is None or y_test is None:
+            raise TypeError("OperatorData needs X_train, y_train, X_test and y_test")
         super().__init__(X_train, y_train, X_test, y_test)
         if beta < 0:
             raise ValueError(f"beta must be non-negative, got {beta}")

@@ -3,7 +3,7 @@
 A *method* maps sensor values V (N, 100) and query times t (M,) to (q, p), each (N, M),
 exactly the information a neural operator has. :class:`ClassicalMethod` wraps a solver
 on the sensors; :class:`NeuralMethod` wraps a trained network. Evaluation, timing and
-the speed/accuracy study (:mod:`nh_operators.report`) take any mapping name → method.
+the speed/accuracy study (:mod:`nh_operators.evaluation.report`) take any mapping name → method.
 """
 
 import abc
@@ -13,8 +13,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ._constants import SENSORS
-from .solvers import integrate_sensors, paper_rk4
+from .._constants import SENSORS
+from .._sensors import sensor_values
+from ..models import as_network
+from ..solvers import integrate_sensors, paper_rk4
 
 __all__ = ["Method", "ClassicalMethod", "NeuralMethod", "CLASSICAL_METHODS",
            "EVALUATE_BASELINES", "classical_methods", "dop853_sensors"]
@@ -78,7 +80,7 @@ class ClassicalMethod(Method):
         self.description = description
 
     def __call__(self, V, t):
-        return self._run(np.asarray(V, dtype=np.float64), np.asarray(t, dtype=np.float64))
+        return self._run(sensor_values(V), np.asarray(t, dtype=np.float64))
 
 
 class NeuralMethod(Method):
@@ -86,10 +88,11 @@ class NeuralMethod(Method):
 
     Args:
         net: a network of :data:`nh_operators.MODELS` (or any DeepXDE network with the
-            ``(V, t) -> (B, M, 2)`` contract).
-        name: its key (default: the class name, lower case).
+            ``(V, t) -> (B, M, 2)`` contract), or another method holding one in ``.net``.
+        name: its key (default: the wrapped method's name, else the class name, lower
+            case).
         batch_size: potentials per forward pass.
-        domain_check: warn (:class:`~nh_operators.stability.OutOfDomainWarning`) when
+        domain_check: warn (:class:`~nh_operators.potentials.OutOfDomainWarning`) when
             an input lies outside the distribution the generator produces.
 
     Example:
@@ -102,6 +105,8 @@ class NeuralMethod(Method):
     kind = "neural"
 
     def __init__(self, net, name=None, *, batch_size=1000, domain_check=True):
+        name = name or getattr(net, "name", None)
+        net = as_network(net)  # a network, or another method holding one
         self.net = net
         self.name = name or type(net).__name__.lower()
         self.family = self.name
@@ -125,7 +130,7 @@ class NeuralMethod(Method):
         Raises:
             FileNotFoundError, ValueError: as :func:`nh_operators.load_model`.
         """
-        from .checkpoint import load_model
+        from ..training import load_model
 
         net, config = load_model(run_dir, device=device)
         method = cls(net, name or config["model"], batch_size=batch_size)
@@ -134,9 +139,9 @@ class NeuralMethod(Method):
         return method
 
     def __call__(self, V, t):
-        from .inference import predict
+        from ..models import predict
 
-        V = np.asarray(V, dtype=np.float64)
+        V = sensor_values(V)
         if self.domain_check:
             _warn_out_of_domain(self.name, V)
         return predict(self.net, np.atleast_2d(V), t, batch_size=self.batch_size)
@@ -149,7 +154,7 @@ class NeuralMethod(Method):
 
 
 def _warn_out_of_domain(name, V):
-    from .stability import OutOfDomainWarning, domain_violations
+    from ..potentials import OutOfDomainWarning, domain_violations
 
     reasons = domain_violations(np.atleast_2d(V))
     if reasons:

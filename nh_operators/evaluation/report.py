@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ._constants import SENSORS
-from .checkpoint import write_atomic
-from .evaluate import loss_per_sample, physical_reference, summarize
-from .physical import PHYSICAL_POTENTIALS
+from .._constants import SENSORS
+from .._metrics import loss_per_sample, summarize
+from ..potentials import PHYSICAL_POTENTIALS
+from ..training import write_atomic
+from .baselines import physical_reference
 from .timing import busy_machine_warning, device_info, seconds_per_trajectory
 
 __all__ = ["EvaluationSettings", "evaluate_methods", "evaluate_method"]
@@ -76,7 +77,7 @@ def evaluate_method(method, dataset, settings=None):
     """Score and time one method on a dataset and on the five physical potentials.
 
     Args:
-        method: a :class:`~nh_operators.methods.Method`.
+        method: a :class:`~nh_operators.evaluation.Method`.
         dataset: a :class:`~nh_operators.data.Dataset` with labels (the test set).
         settings: :class:`EvaluationSettings` (default: its defaults).
 
@@ -142,7 +143,7 @@ def evaluate_method(method, dataset, settings=None):
 
 
 def _cache_key(method, dataset, settings):
-    from ._version import __version__
+    from .._version import __version__
 
     key = {"method": _fingerprint(method), "dataset": dataset.checksum,
            "settings": settings.as_dict(), "version": __version__}
@@ -173,7 +174,7 @@ def evaluate_methods(methods, dataset, settings=None, *, cache_dir=None, fresh=F
     """Evaluate many methods (networks and classical baselines) on the same inputs.
 
     Args:
-        methods: dict name -> :class:`~nh_operators.methods.Method` (the dict key is
+        methods: dict name -> :class:`~nh_operators.evaluation.Method` (the dict key is
             the report's name).
         dataset: the labelled test set.
         settings: :class:`EvaluationSettings`.

@@ -9,9 +9,11 @@ import json
 import math
 from pathlib import Path
 
-from .checkpoint import write_atomic
-from .evaluate import physical_reference
-from .physical import PHYSICAL_POTENTIALS
+from ..potentials import PHYSICAL_POTENTIALS
+from ..training import write_atomic
+from .baselines import physical_reference
+from .plots import plot_trajectory, plot_worst_sample
+from .summary_plots import plot_loss_histograms, plot_work_precision
 from .workprecision import work_precision_markdown, work_precision_rows
 
 __all__ = ["write_report", "write_json", "write_figures", "save_figure", "test_table",
@@ -99,18 +101,16 @@ def write_figures(results, arrays, dataset, out_dir):
     Returns:
         list of the written file names (relative to ``out_dir``).
     """
-    from . import plots
-
     out_dir = Path(out_dir)
     written = []
     losses = {n: a["L_tot"] for n, a in arrays.items() if (a["L_tot"] > 0).all()}
     if losses:
-        save_figure(plots.plot_loss_histograms(losses, title="test-set L_tot"),
+        save_figure(plot_loss_histograms(losses, title="test-set L_tot"),
               out_dir / "loss_histograms.png")
         written.append("loss_histograms.png")
     rows = work_precision_rows(results, "batched")
     if rows:
-        save_figure(plots.plot_work_precision(rows, title="work precision (large batch)"),
+        save_figure(plot_work_precision(rows, title="work precision (large batch)"),
               out_dir / "work_precision.png")
         written.append("work_precision.png")
     t = dataset.t
@@ -120,12 +120,12 @@ def write_figures(results, arrays, dataset, out_dir):
             continue
         a = arrays[name]
         i = int(a["worst"])
-        save_figure(plots.plot_worst_sample(name, dataset.V[i], t, dataset.q[i], dataset.p[i],
+        save_figure(plot_worst_sample(name, dataset.V[i], t, dataset.q[i], dataset.p[i],
                                       a["q_worst"], a["p_worst"], float(a["L_tot"][i])),
               out_dir / f"worst_{name}.png")
         written.append(f"worst_{name}.png")
         for k, pot in enumerate(PHYSICAL_POTENTIALS):
-            fig = plots.plot_trajectory(
+            fig = plot_trajectory(
                 PHYSICAL_POTENTIALS[pot], t, *refs[pot], a["physical_q"][k], a["physical_p"][k],
                 title=f"{name} on {PHYSICAL_TITLES[pot]}: L_tot = {m['physical'][pot]:.2e}")
             save_figure(fig, out_dir / f"physical_{name}_{pot}.png")
@@ -176,7 +176,7 @@ def write_report(results, arrays, dataset, out_dir, *, command=None, stability=N
     """Write ``report.json``, ``report.md`` and (optionally) the figures to ``out_dir``.
 
     Args:
-        results, arrays: from :func:`~nh_operators.report.evaluate_methods`.
+        results, arrays: from :func:`~nh_operators.evaluation.evaluate_methods`.
         dataset: the test set they were computed on (for the worst-sample figures).
         out_dir: output folder (created).
         command: the command line, quoted in the report.

@@ -12,7 +12,7 @@ Where an input is outside what a method can do, a warning says so:
   for the potential's curvature, an energy drift (a deep well can fail with a step that
   looks fine for its curvature), or a kink; the message names the substeps that suffice.
 - :class:`OutOfDomainWarning`: sensor values unlike anything the paper's generator makes,
-  hence unlike a network's training data; :func:`domain_violations` gives the reasons.
+  hence unlike a network's training data; :func:`~nh_operators.potentials.domain_violations` gives the reasons.
 
 Limitation: nothing computed from the sensors alone tells whether they resolve V. A wall
 narrower than the sensor spacing 1/99 leaves only a big jump between two sensors, and a
@@ -28,18 +28,14 @@ import warnings
 
 import numpy as np
 
-from ._constants import SENSORS, TIMES, V0
-from .evaluate import energy_error, loss_per_sample
-from .physical import PHYSICAL_POTENTIALS, AnalyticPotential, smff
-from .solvers import RESOLUTION_FRACTION, STABILITY_LIMITS, ResolutionWarning, reference_solve
+from .._constants import SENSORS, TIMES, V0
+from .._metrics import energy_error, loss_per_sample
+from ..potentials import PHYSICAL_POTENTIALS, AnalyticPotential
+from ..potentials.physical import smff
+from ..solvers import RESOLUTION_FRACTION, STABILITY_LIMITS, reference_solve
 
-__all__ = ["EXTREME_CASES", "GENERATOR_DOMAIN", "ENERGY_BOUNDS", "OutOfDomainWarning",
-           "ResolutionWarning", "extreme_potentials", "extreme_reference", "case_properties",
-           "domain_violations", "stability_table", "stability_markdown"]
-
-
-class OutOfDomainWarning(UserWarning):
-    """Sensor values outside the distribution a network was trained on."""
+__all__ = ["EXTREME_CASES", "ENERGY_BOUNDS", "extreme_potentials", "extreme_reference", "case_properties",
+           "stability_table", "stability_markdown"]
 
 
 #: name -> one-line description of each extreme case, in report order.
@@ -55,7 +51,7 @@ EXTREME_CASES = {
                 "sensor spacing",
 }
 
-#: Largest energy error max_t |p²/2 + V(q) - V0| on the true potential, t ∈ [0, 2], that
+#: Largest energy error max_t ``|p²/2 + V(q) - V0|`` on the true potential, t ∈ [0, 2], that
 #: the tests allow (measured maxima over the cases they cover, times about 3 or more).
 #: ``rk4_exact_16``: RK4, 16 steps per output interval, on the formula of V, every case
 #: but MFF: 2.6e-4 (deep well), 1.2e-5 (steep wall), 9e-8 (SMFF), 0 (near flat).
@@ -67,20 +63,6 @@ EXTREME_CASES = {
 #: well) while RK4 drifts (x31, x14); across the kinks even Yoshida-8 drifts slowly (x2 to
 #: x6, staying below 3e-4), the spline being only C² there.
 ENERGY_BOUNDS = {"rk4_exact_16": 1e-3, "yoshida8_exact_16": 1e-6, "sensors_16": 6e-2}
-
-#: What the paper's generator (BoundedPotentialSpace, ω = 0.05, margin 0.05) can produce,
-#: as seen at the 100 sensors. ``V_range``: control values lie in [-V0, V0] and the
-#: B-spline stays in their convex hull. ``max_slope`` = 4/ω = 80: dV/dq is a weighted
-#: mean of the control-polygon slopes ΔV/Δq, with |ΔV| ≤ 4 and Δq ≥ ω, and a slope between
-#: two sensors is a value of dV/dq. ``min_V_at_most``: one control value is -V0 and its
-#: basis function peaks at 4/9 or more (4 controls; 0.5 or more otherwise), so min V ≤
-#: 2 - 4·4/9 = 2/9 on the curve, and the nearest sensor is within 1/198 in q, so within
-#: 80/198 in V: 0.626 (measured on standard.h5 + test.h5, 14,000 potentials: 0.177).
-#: ``max_curvature``: second differences of the sensors, empirical: 2,126 at most on
-#: those 14,000 (99.9th percentile 1,999), times 1.5.
-GENERATOR_DOMAIN = {"V_range": (-V0, V0), "max_slope": 80.0,
-                    "min_V_at_most": 2.0 / 9.0 + 80.0 / 198.0, "max_curvature": 3200.0}
-
 
 # ------------------------------------------------------------------ the potentials
 
@@ -187,14 +169,14 @@ def extreme_reference(name, t=TIMES):
 
 
 def case_properties(potential):
-    """Measured properties of a potential: V'(0), min V, max V inside, max |V''| at sensors.
+    """Measured properties of a potential: V'(0), min V, max V inside, max ``|V''|`` at sensors.
 
     Args:
         potential: an object with vectorised ``V`` and ``dV``.
 
     Returns:
         dict of floats ``dV0`` (V'(0)), ``min_V``, ``max_V_inside`` (on a 10,001-point
-        grid, ends excluded) and ``sensor_curvature`` (max |second difference| · 99²).
+        grid, ends excluded) and ``sensor_curvature`` (max ``|second difference|`` · 99²).
     """
     q = np.linspace(0.0, 1.0, 10_001)
     values = potential.V(q)
@@ -202,70 +184,6 @@ def case_properties(potential):
     return {"dV0": float(potential.dV(0.0)), "min_V": float(values.min()),
             "max_V_inside": float(values[1:-1].max()),
             "sensor_curvature": float(np.abs(np.diff(sensors, 2)).max() * 99**2)}
-
-
-# ----------------------------------------------------------------- the domain check
-
-
-def domain_violations(V, domain=None):
-    """Why sensor values lie outside what the paper's generator produces.
-
-    A network trained on the generator's potentials has never seen such inputs; its
-    outputs there are extrapolation. Call this before predicting and raise
-    :class:`OutOfDomainWarning` with each message.
-
-    Args:
-        V: sensor values, shape (100,) or (N, 100).
-        domain: bounds as in :data:`GENERATOR_DOMAIN` (the default).
-
-    Returns:
-        list of messages, one per violated bound, each naming the rows (for a batch),
-        the worst value and the bound; empty when every row is inside.
-
-    Raises:
-        ValueError: for a wrong shape or non-finite values.
-
-    Example:
-        >>> domain_violations(8 * (SENSORS - 0.5) ** 2)
-        []
-        >>> domain_violations(2 - 88 * SENSORS * (1 - SENSORS))[0].split(":")[0]
-        'V has values below -2 (the generator keeps V in [-2, 2])'
-    """
-    d = dict(GENERATOR_DOMAIN if domain is None else domain)
-    V = np.asarray(V, dtype=np.float64)
-    if V.ndim not in (1, 2) or V.shape[-1] != SENSORS.size or not np.all(np.isfinite(V)):
-        raise ValueError(f"V must hold finite values at the {SENSORS.size} sensors, shape "
-                         f"(100,) or (N, 100); got shape {V.shape}")
-    rows = np.atleast_2d(V)
-    lo, hi = d["V_range"]
-    width = SENSORS[1] - SENSORS[0]
-    checks = [
-        (rows.min(axis=1), lambda x: x < lo - 1e-9, np.argmin,
-         f"has values below {lo:g} (the generator keeps V in [{lo:g}, {hi:g}])", "min V"),
-        (rows.max(axis=1), lambda x: x > hi + 1e-9, np.argmax,
-         f"has values above {hi:g} (the generator keeps V in [{lo:g}, {hi:g}])", "max V"),
-        (rows.min(axis=1), lambda x: x > d["min_V_at_most"], np.argmax,
-         f"never dips below {d['min_V_at_most']:.3g} (every generator potential does: too "
-         "flat)", "min V"),
-        (np.abs(np.diff(rows, axis=1)).max(axis=1) / width, lambda x: x > d["max_slope"],
-         np.argmax, f"is steeper than the generator's max |V'| = {d['max_slope']:g}",
-         "max |ΔV/Δq|"),
-        (np.abs(np.diff(rows, 2, axis=1)).max(axis=1) / width**2,
-         lambda x: x > d["max_curvature"], np.argmax,
-         f"curves more sharply than the training data (|V''| ≤ {d['max_curvature']:g} "
-         "at the sensors)", "max |Δ²V/Δq²|"),
-    ]
-    messages = []
-    for values, bad, pick, text, what in checks:
-        hits = np.flatnonzero(bad(values))
-        if hits.size:
-            worst = hits[pick(values[hits])]
-            where = "V" if V.ndim == 1 else (
-                f"V[{', '.join(map(str, hits[:5]))}{' ...' if hits.size > 5 else ''}] "
-                f"({hits.size} of {len(rows)} rows)")
-            messages.append(f"{where} {text}: {what} = {values[worst]:.4g}"
-                            + ("" if V.ndim == 1 else f" in row {worst}"))
-    return messages
 
 
 # ------------------------------------------------------------------ table and report
@@ -289,7 +207,7 @@ def stability_table(methods, t=TIMES, cases=None):
     Returns:
         JSON-serialisable dict ``{case: {method: entry}}``, entry a dict with ``finite``
         (bool: every q and p finite), ``L_tot`` (against :func:`extreme_reference`),
-        ``energy_error`` (max over t of |p²/2 + V(q) - V0| on the true potential; None
+        ``energy_error`` (max over t of ``|p²/2 + V(q) - V0|`` on the true potential; None
         when not finite), ``warnings`` (list of "Category: message") and ``error`` (None,
         or "Type: message" of an exception the method raised, which is not propagated).
 

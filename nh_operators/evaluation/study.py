@@ -13,13 +13,18 @@ import shlex
 import sys
 from pathlib import Path
 
-from .checkpoint import write_atomic
-from .data import load_dataset
+from ..data import load_dataset
+from ..training import write_atomic
 from .methods import EVALUATE_BASELINES, NeuralMethod, classical_methods
 from .report import evaluate_methods
 from .report_files import save_figure, write_json, write_report
-from .workprecision import (REGIMES, faster_statements, work_precision_markdown,
-                            work_precision_rows)
+from .summary_plots import plot_work_precision
+from .workprecision import (
+    REGIMES,
+    faster_statements,
+    work_precision_markdown,
+    work_precision_rows,
+)
 
 __all__ = ["load_methods", "evaluate_report", "benchmark_report"]
 
@@ -29,7 +34,7 @@ def load_methods(runs=(), classical=EVALUATE_BASELINES, *, device="cpu", batch_s
 
     Args:
         runs: run directories written by ``nh-operators train``.
-        classical: names in :data:`~nh_operators.methods.CLASSICAL_METHODS` (None: all).
+        classical: names in :data:`~nh_operators.evaluation.CLASSICAL_METHODS` (None: all).
         device: device for the networks.
         batch_size: potentials per forward pass.
 
@@ -81,7 +86,7 @@ def evaluate_report(runs, test, out, *, classical=EVALUATE_BASELINES, device="cp
         out: report folder; gets ``report.md``, ``report.json``, figures and ``cache/``.
         classical: classical baselines to include.
         device: device for the networks.
-        settings: :class:`~nh_operators.report.EvaluationSettings`.
+        settings: :class:`~nh_operators.evaluation.EvaluationSettings`.
         stability: add the stability-at-the-extremes section.
         figures: draw the figures.
         fresh: recompute every method, ignoring ``out/cache``.
@@ -133,12 +138,10 @@ def benchmark_report(test, out, runs=(), *, classical=None, device="cpu", settin
             "every classical method at target ε when its mean L_tot ≤ ε and no classical "
             "method meeting ε is as fast.", "", work_precision_markdown(results), ""]
     if figures and work_precision_rows(results, "batched"):
-        from . import plots
-
         for regime in ("batched", "batch_1"):
             rows = work_precision_rows(results, regime)
             name = "work_precision.png" if regime == "batched" else "work_precision_batch1.png"
-            save_figure(plots.plot_work_precision(rows, title=f"work precision ({regime})"),
+            save_figure(plot_work_precision(rows, title=f"work precision ({regime})"),
                         out / name)
             text += [f"![{regime}]({name})", ""]
     path = out / "work_precision.md"

@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from .evaluate import summarize
+from .._metrics import summarize
 
 __all__ = ["cpu_name", "device_info", "busy_machine_warning", "time_call",
            "seconds_per_trajectory"]
@@ -121,7 +121,7 @@ def seconds_per_trajectory(method, V, t, *, n_single=20, repeats=5, batched=True
     """Time a method at batch 1 and at full batch on the same inputs.
 
     Args:
-        method: a :class:`~nh_operators.methods.Method`.
+        method: a :class:`~nh_operators.evaluation.Method`.
         V: sensor values (N, 100); the batched regime uses all of them, batch 1 the
             first ``n_single``.
         t: query times (M,).
@@ -137,7 +137,7 @@ def seconds_per_trajectory(method, V, t, *, n_single=20, repeats=5, batched=True
 
     Example:
         >>> import nh_operators as nh
-        >>> from nh_operators.methods import CLASSICAL_METHODS
+        >>> from nh_operators.evaluation.methods import CLASSICAL_METHODS
         >>> V = np.tile(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS), (8, 1))
         >>> r = seconds_per_trajectory(CLASSICAL_METHODS["rk4_sensors_1"], V, nh.TIMES,
         ...                            n_single=2, repeats=2)

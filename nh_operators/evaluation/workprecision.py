@@ -22,7 +22,7 @@ def work_precision_rows(results, regime="batched"):
     """One row per method: name, kind, family, seconds per trajectory, mean L_tot.
 
     Args:
-        results: the ``report.json`` dict of :func:`~nh_operators.report.evaluate_methods`.
+        results: the ``report.json`` dict of :func:`~nh_operators.evaluation.evaluate_methods`.
         regime: ``"batched"`` or ``"batch_1"``.
 
     Returns:

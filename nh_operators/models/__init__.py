@@ -1,113 +1,39 @@
-"""The neural operators, as DeepXDE networks, and their registry.
+"""Models: the neural operators as DeepXDE networks, and batched prediction.
 
-Every network takes DeepXDE's ``(V, t)`` pair — V of shape (B, 100), t of shape
-(M, 1) — and returns (B, M, 2) holding q and p, for any M.
+DeepONet, TraONet, VaRONet, MambONet and an FNO baseline, the registry that builds them
+from presets, and :func:`predict`. A bottom wing: it imports no other wing.
 """
-
-import inspect
-
-import torch
 
 from .deeponet import DeepONet
 from .fno import FNO
+from .inference import as_network, batched_forward, predict
 from .mambonet import MambONet
-from .presets import ARCHITECTURES, PRESETS, TRAINING
+from .registry import (
+    MODELS,
+    PRESETS,
+    build_model,
+    cast_network,
+    count_parameters,
+    model_config,
+    training_defaults,
+)
 from .traonet import TraONet
 from .varonet import VaRONet
 
-__all__ = ["MODELS", "PRESETS", "DeepONet", "TraONet", "VaRONet", "MambONet", "FNO",
-           "build_model", "cast_network", "model_config", "training_defaults", "count_parameters"]
-
-#: name → network class.
-MODELS = {
-    "deeponet": DeepONet,
-    "traonet": TraONet,
-    "varonet": VaRONet,
-    "mambonet": MambONet,
-    "fno": FNO,
-}
-
-
-def _check(name, preset):
-    if name not in MODELS:
-        raise ValueError(f"unknown model {name!r}; choose from {sorted(MODELS)}")
-    if preset not in ARCHITECTURES:
-        raise ValueError(f"unknown preset {preset!r}; choose from {list(PRESETS)}")
-
-
-def model_config(name, preset="paper", **overrides):
-    """The constructor arguments ``build_model`` would use.
-
-    Raises:
-        ValueError: for an unknown name, preset or argument.
-    """
-    _check(name, preset)
-    allowed = set(inspect.signature(MODELS[name]).parameters)
-    unknown = sorted(set(overrides) - allowed)
-    if unknown:
-        raise ValueError(f"{name} has no argument(s) {unknown}; it takes {sorted(allowed)}")
-    return {**ARCHITECTURES[preset][name], **overrides}
-
-
-def build_model(name, preset="paper", **overrides):
-    """Build a network from the registry.
-
-    Args:
-        name: a key of :data:`MODELS` ("deeponet", "traonet", "varonet", "mambonet",
-            "fno").
-        preset: "paper" (the paper's optimal architecture) or "cpu" (small: an epoch
-            of the standard dataset in under a minute on a 2-core CPU).
-        **overrides: constructor arguments replacing the preset's.
-
-    Returns:
-        The network, a ``deepxde.nn.pytorch.NN``, in float32 on the CPU. Its weights
-        come from torch's global generator: seed it (or use ``torch.random.fork_rng``)
-        for reproducible weights.
-
-    Raises:
-        ValueError: for an unknown name, preset or argument.
-
-    Example:
-        >>> import torch
-        >>> net = build_model("traonet", preset="cpu")
-        >>> net((torch.zeros(2, 100), torch.zeros(5, 1))).shape
-        torch.Size([2, 5, 2])
-    """
-    config = model_config(name, preset, **overrides)
-    return MODELS[name](**config)
-
-
-def training_defaults(name):
-    """The paper's training values for ``name``: lr, upper_bound, infimum_lr (and
-    beta for VaRONet)."""
-    _check(name, "paper")
-    return dict(TRAINING[name])
-
-
-def count_parameters(net):
-    """Number of trainable parameters of a network."""
-    return sum(p.numel() for p in net.parameters() if p.requires_grad)
-
-
-def cast_network(net, dtype):
-    """Cast a network's real tensors to ``dtype`` and its complex ones to the matching
-    complex dtype (``Module.to(dtype)`` would drop the imaginary part of FNO's
-    spectral weights).
-
-    Args:
-        net: a ``torch.nn.Module``.
-        dtype: ``torch.float32`` or ``torch.float64``.
-
-    Returns:
-        The same module, cast in place.
-    """
-    complex_dtype = {torch.float32: torch.complex64, torch.float64: torch.complex128}
-    if dtype not in complex_dtype:
-        raise ValueError(f"dtype must be torch.float32 or torch.float64, got {dtype}")
-
-    def cast(t):
-        if t.is_complex():
-            return t.to(complex_dtype[dtype])
-        return t.to(dtype) if t.is_floating_point() else t
-
-    return net._apply(cast)
+__all__ = [
+    "DeepONet",
+    "TraONet",
+    "VaRONet",
+    "MambONet",
+    "FNO",
+    "MODELS",
+    "PRESETS",
+    "build_model",
+    "cast_network",
+    "model_config",
+    "training_defaults",
+    "count_parameters",
+    "predict",
+    "as_network",
+    "batched_forward",
+]

@@ -5,9 +5,10 @@ import warnings
 import numpy as np
 import torch
 
-from ._constants import TIMES
+from .._constants import TIMES
+from .._sensors import sensor_values
 
-__all__ = ["predict", "batched_forward"]
+__all__ = ["predict", "batched_forward", "as_network"]
 
 
 def batched_forward(net, V, t, batch_size):
@@ -40,6 +41,38 @@ def batched_forward(net, V, t, batch_size):
         net.train(was_training)
 
 
+def as_network(net):
+    """The ``torch.nn.Module`` behind what a user passes as a network.
+
+    Args:
+        net: a network, or an object holding one in ``.net`` (a
+            :class:`~nh_operators.NeuralMethod`, e.g. from :func:`nh_operators.pretrained`).
+
+    Returns:
+        torch.nn.Module.
+
+    Raises:
+        TypeError: for anything else, saying what to pass instead (for example the
+            ``(net, config)`` pair of :func:`~nh_operators.load_model`).
+
+    Example:
+        >>> import nh_operators as nh
+        >>> model = nh.pretrained("deeponet")
+        >>> as_network(model) is model.net
+        True
+    """
+    if isinstance(net, torch.nn.Module):
+        return net
+    inner = getattr(net, "net", None)
+    if isinstance(inner, torch.nn.Module):
+        return inner
+    if isinstance(net, tuple) and net and isinstance(net[0], torch.nn.Module):
+        raise TypeError("got a tuple (net, ...): load_model and train return a pair; unpack "
+                        "it first, e.g. net, config = nh.load_model(run_dir)")
+    raise TypeError(f"expected a network (torch.nn.Module) or an object holding one in "
+                    f".net such as nh.pretrained(name); got {type(net).__name__}")
+
+
 def _is_training_grid(t):
     return t.shape == TIMES.shape and np.allclose(t, TIMES, rtol=0, atol=1e-12)
 
@@ -49,8 +82,10 @@ def predict(net, V, t, batch_size=1000):
 
     Args:
         net: a network of :data:`nh_operators.MODELS` (or any DeepXDE network with
-            the same ``(V, t)`` → (B, M, 2) contract).
-        V: potentials at the sensors, array of shape (N, 100) (or (100,) for one).
+            the same ``(V, t)`` → (B, M, 2) contract), or an object holding one in
+            ``.net``, such as :func:`nh_operators.pretrained` returns.
+        V: potentials at the sensors, array of shape (N, 100) (or (100,) for one), or a
+            potential object with ``V(q)`` (a batched BoundedPotential gives N rows).
         t: query times, shape (M,) or (M, 1).
         batch_size: potentials per forward (memory grows with it).
 
@@ -59,6 +94,8 @@ def predict(net, V, t, batch_size=1000):
 
     Raises:
         ValueError: for wrong shapes, non-finite inputs or a bad batch size.
+        TypeError: if ``net`` is not a network (see :func:`as_network`) or V is not
+            real numbers.
 
     Warns:
         UserWarning: when a network whose query times are coupled (TraONet, VaRONet,
@@ -72,7 +109,8 @@ def predict(net, V, t, batch_size=1000):
         >>> q.shape
         (3, 5)
     """
-    V = np.array(V, dtype=np.float64)  # a copy: read-only inputs (HDF5, views) are fine
+    net = as_network(net)
+    V = sensor_values(V)
     single = V.ndim == 1
     if single:
         V = V[None]

@@ -38,4 +38,5 @@ TRAINING = {
     "fno": dict(lr=1e-3, upper_bound=300, infimum_lr=1e-5),
 }
 
+#: Names of the architecture presets: "paper" (the paper's sizes) and "cpu" (smaller).
 PRESETS = tuple(ARCHITECTURES)

@@ -6,8 +6,8 @@ and V(q) < V0 for 0 < q < 1, so a particle released at rest at q = 0 stays in [0
 
 import numpy as np
 
-from . import _kernels, bspline
-from ._constants import SENSORS, V0
+from .._constants import SENSORS, V0
+from . import _spline_kernels, bspline
 
 __all__ = ["BoundedPotential", "check_bounded"]
 
@@ -16,7 +16,7 @@ def _evaluate(fn, params, q):
     q = np.asarray(q, dtype=np.float64)
     flat = np.ascontiguousarray(q.reshape(-1))
     out = np.empty((params.shape[0], flat.size))
-    _kernels.evaluate(fn, params, flat, out)
+    _spline_kernels.evaluate(fn, params, flat, out)
     return out
 
 
@@ -90,15 +90,15 @@ class BoundedPotential:
 
     def V(self, q):
         """V at points q (any shape); a batch returns shape (N,) + q.shape."""
-        return self._shape(_evaluate(_kernels.bspline_value, self.params, q), q)
+        return self._shape(_evaluate(_spline_kernels.bspline_value, self.params, q), q)
 
     def dV(self, q):
         """dV/dq at points q, exact for the curve."""
-        return self._shape(-_evaluate(_kernels.bspline_force, self.params, q), q)
+        return self._shape(-_evaluate(_spline_kernels.bspline_force, self.params, q), q)
 
     def d2V(self, q):
         """d²V/dq² at points q (continuous: the potentials are C²)."""
-        return self._shape(_evaluate(_kernels.bspline_curvature, self.params, q), q)
+        return self._shape(_evaluate(_spline_kernels.bspline_curvature, self.params, q), q)
 
     def __repr__(self):
         n = "1" if self._single else str(self.params.shape[0])

@@ -252,8 +252,8 @@ def parse_potential(text, *, name=None):
         >>> float(pot.dV(0.25))
         -4.0
     """
+    from .bounded import check_bounded
     from .physical import AnalyticPotential
-    from .potentials import check_bounded
 
     expr = parse_expression(text)
     check_bounded(expr, name=f"V = {text}: V")

@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from ._backend import ensure_pytorch_backend
-from ._constants import V0
+from .._backend import ensure_pytorch_backend
+from .._constants import V0
+from .bounded import BoundedPotential
 from .bspline import MAX_CONTROL
-from .potentials import BoundedPotential
 
 FunctionSpace = ensure_pytorch_backend().data.function_spaces.FunctionSpace
 

@@ -18,8 +18,8 @@ free fall V = −4(q − 1/2), Q = 1/2, it gives P = 32q³ − 48q² + 20q − 2
 import numpy as np
 from scipy import integrate
 
-from ._constants import V0 as DEFAULT_V0
-from .classical_solve import _Callable
+from .._constants import V0 as DEFAULT_V0
+from .coerce import CallablePotential as _Callable
 
 __all__ = ["ExtendedPotential", "extend_monotone"]
 

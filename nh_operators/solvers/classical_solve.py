@@ -25,12 +25,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._constants import SENSORS
-from .evaluate import loss_per_sample
-from .potentials import BoundedPotential, check_bounded
-from .solvers import ORDERS, integrate, integrate_sensors
+from .._backend import single_threaded
+from .._metrics import loss_per_sample
+from ..potentials.coerce import as_potential
+from .fixed_step import integrate, integrate_sensors
+from .schemes import ORDERS
 
-__all__ = ["ClassicalSolution", "as_potential", "solve_classical", "adaptive_solve", "SAFETY"]
+__all__ = ["ClassicalSolution", "solve_classical", "adaptive_solve", "SAFETY"]
 
 #: A level is accepted when its estimate is below SAFETY · tol (see above).
 SAFETY = 0.01
@@ -62,72 +63,6 @@ class ClassicalSolution:
     history: list = field(default_factory=list)
 
 
-class _Callable:
-    """A user's V(q) with dV(q), or a fourth-order central difference of V (final)."""
-
-    def __init__(self, V, dV=None, h=1e-3):
-        self.name = getattr(V, "__name__", "V")
-        self._V, self._dV, self._h = V, dV, h
-
-    def V(self, q):
-        return np.asarray(self._V(np.asarray(q, dtype=np.float64)), dtype=np.float64)
-
-    def dV(self, q):
-        q = np.asarray(q, dtype=np.float64)
-        if self._dV is not None:
-            return np.asarray(self._dV(q), dtype=np.float64)
-        h = self._h
-        return (8 * (self.V(q + h) - self.V(q - h)) - (self.V(q + 2 * h) - self.V(q - 2 * h))) / (12 * h)
-
-
-def as_potential(potential, dV=None):
-    """Turn what a user gives into something the solvers take.
-
-    Args:
-        potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`; a text
-            expression in q (parsed safely, see :mod:`nh_operators.expression`); a
-            callable V(q); an object with ``V`` and ``dV``; a single
-            :class:`BoundedPotential`; or the 100 values at :data:`SENSORS`.
-        dV: the derivative of a callable V (default: a fourth-order central difference
-            with h = 1e-3, accurate to ~1e-12 relative on smooth potentials).
-
-    Returns:
-        (potential object, information): information is ``"exact V"`` or ``"sensors"``
-        (then the object is the (100,) array of sensor values).
-
-    Raises:
-        ValueError: for an unknown name, a bad expression, or V breaking the bounded
-            conditions; TypeError for anything else.
-    """
-    from .physical import PHYSICAL_POTENTIALS
-
-    if isinstance(potential, str):
-        if potential in PHYSICAL_POTENTIALS:
-            return PHYSICAL_POTENTIALS[potential], "exact V"
-        from .expression import parse_potential
-
-        return parse_potential(potential), "exact V"
-    if isinstance(potential, BoundedPotential):
-        if potential.batched:
-            raise ValueError("solve_classical takes one potential; index a batch with [i]")
-        return potential, "exact V"
-    if hasattr(potential, "V") and hasattr(potential, "dV"):
-        check_bounded(potential.V, name=getattr(potential, "name", "V"))
-        return potential, "exact V"
-    if callable(potential):
-        pot = _Callable(potential, dV)
-        check_bounded(pot.V, name=pot.name)
-        return pot, "exact V"
-    try:
-        values = np.asarray(potential, dtype=np.float64)
-    except (TypeError, ValueError):
-        values = None
-    if values is not None and values.shape == SENSORS.shape:
-        return check_bounded(values), "sensors"
-    raise TypeError(f"cannot use {type(potential).__name__} as a potential: give a name, an "
-                    "expression, a callable, a BoundedPotential or the 100 sensor values")
-
-
 def _run(pot, information, t, method, substeps):
     if information == "sensors":
         return integrate_sensors(pot, t, method, substeps, check_resolution=False)
@@ -138,7 +73,7 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
     """Solve at exactly the times ``t`` to an estimated L_tot ≤ ``tol``.
 
     Args:
-        potential: see :func:`as_potential`.
+        potential: see :func:`~nh_operators.potentials.as_potential`.
         t: query times, any order, ≥ 0.
         tol: target L_tot (mean over the times of the squared errors of q and p,
             averaged); > 0.
@@ -162,8 +97,6 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
         raise ValueError(f"tol must be a positive number, got {tol!r}")
     if method not in ORDERS:
         raise ValueError(f"unknown method {method!r}; choose one of {sorted(ORDERS)}")
-    from ._backend import single_threaded
-
     with single_threaded():
         pot, information = as_potential(potential, dV)
     t = np.asarray(t, dtype=np.float64).reshape(-1)
@@ -172,11 +105,9 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
 
 def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=None):
     """The doubling loop of :func:`solve_classical` on an already checked potential
-    (the output of :func:`as_potential`); ``start`` is the perf_counter at which the
+    (the output of :func:`~nh_operators.potentials.as_potential`); ``start`` is the perf_counter at which the
     solve's clock started (default: now). Runs on one thread
     (:func:`~nh_operators._backend.single_threaded`)."""
-    from ._backend import single_threaded
-
     start = time.perf_counter() if start is None else start
     with single_threaded():
         return _doubling(pot, information, t, tol, method, max_substeps, start)

@@ -1,12 +1,12 @@
-"""Classical solvers of q' = p, p' = -V'(q) from rest at q = 0, in float64.
+"""Fixed-step solvers of q' = p, p' = -V'(q) from rest at q = 0, in float64.
 
 - :func:`integrate`: fixed-step RK4 and symplectic methods on a potential known exactly.
 - :func:`integrate_sensors`: the same methods on the information a neural operator has,
   V at the 100 :data:`SENSORS`, the force from a spline of the sensors.
 - :func:`paper_rk4`: the paper's RK4 row, rebuilt correctly (one RK4 step per output
   interval, force from a PCHIP interpolant) so that it can be shown for what it is.
-- :func:`reference_solve`: adaptive high-accuracy solve used for truth.
 
+The truth, :func:`~nh_operators.solvers.reference_solve`, lives in :mod:`.reference`.
 The fixed-step solvers warn with :class:`ResolutionWarning` when the step is too coarse
 for the potential's curvature (:data:`RESOLUTION_FRACTION`), when the energy has drifted
 by :data:`ENERGY_DRIFT_TOL` at the last query time (sensor splines and formulas), or when
@@ -14,74 +14,23 @@ a formula's force jumps (a kink: fixed steps are then first order).
 """
 
 import numpy as np
-from scipy import integrate as sp_integrate
 from scipy import interpolate
 
+from .._constants import SENSORS, TIMES, V0
+from .._sensors import sensor_values
+from ..potentials import _spline_kernels
+from ..potentials.bounded import BoundedPotential, check_bounded
 from . import _kernels
-from ._constants import SENSORS, TIMES, V0
-from .potentials import BoundedPotential, check_bounded
-from .resolution import (ENERGY_DRIFT_TOL, RESOLUTION_FRACTION, STABILITY_LIMITS,
-                         ResolutionWarning, check_energy, check_formula,
-                         check_resolution_of, spline_curvature, spline_drift)
+from .resolution import (
+    check_energy,
+    check_formula,
+    check_resolution_of,
+    spline_curvature,
+    spline_drift,
+)
+from .schemes import _check_times, _method, _step_grid
 
-__all__ = ["METHODS", "ORDERS", "RESOLUTION_FRACTION", "STABILITY_LIMITS", "ENERGY_DRIFT_TOL",
-           "ResolutionWarning", "integrate", "integrate_sensors", "paper_rk4", "reference_solve"]
-
-
-def _triple_jump(weights, order):
-    """Yoshida's triple jump: a method of even order ``order`` from one of order - 2."""
-    root = 2.0 ** (1.0 / (order - 1))
-    w1 = 1.0 / (2.0 - root)
-    w0 = -root * w1
-    return np.concatenate([w1 * weights, w0 * weights, w1 * weights])
-
-
-_VERLET = np.array([1.0])
-_Y4 = _triple_jump(_VERLET, 4)
-_Y6 = _triple_jump(_Y4, 6)
-_Y8 = _triple_jump(_Y6, 8)
-
-#: Step methods: None means classical RK4; otherwise the Störmer–Verlet sub-step weights
-#: of a symplectic composition (Yoshida's triple jump for orders 4, 6 and 8).
-METHODS = {"rk4": None, "verlet": _VERLET, "yoshida4": _Y4, "yoshida6": _Y6, "yoshida8": _Y8}
-#: Convergence order of each method on smooth potentials.
-ORDERS = {"rk4": 4, "verlet": 2, "yoshida4": 4, "yoshida6": 6, "yoshida8": 8}
-def _check_times(t):
-    t = np.asarray(t, dtype=np.float64)
-    if t.ndim == 2 and t.shape[1] == 1:
-        t = t[:, 0]
-    if t.ndim != 1 or t.size == 0:
-        raise ValueError(f"t must be a non-empty 1-D array of times, got shape {t.shape}")
-    if not np.all(np.isfinite(t)) or np.any(t < 0):
-        raise ValueError("t must hold finite times ≥ 0 (the particle starts at rest at t = 0)")
-    return t
-
-
-def _step_grid(t, substeps, interval):
-    """Sorted query times, step size and number of steps covering [0, max t]."""
-    if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
-        raise ValueError(f"substeps must be a positive integer, got {substeps}")
-    order = np.argsort(t, kind="stable")
-    ts = np.ascontiguousarray(t[order])
-    if interval is None:
-        interval = TIMES[1] - TIMES[0]
-        if ts.size >= 2 and ts[0] == 0.0:
-            gaps = np.diff(ts)
-            if gaps[0] > 0 and np.abs(gaps - gaps[0]).max() <= 1e-9 * gaps[0]:
-                interval = gaps[0]
-    if not interval > 0:
-        raise ValueError(f"interval must be positive, got {interval}")
-    t_max = ts[-1]
-    nsteps = int(np.ceil(t_max * substeps / interval - 1e-9)) if t_max > 0 else 0
-    h = t_max / nsteps if nsteps else 1.0
-    return order, ts, h, nsteps
-
-
-def _method(method):
-    if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {sorted(METHODS)}")
-    weights = METHODS[method]
-    return weights is None, (_VERLET if weights is None else weights)
+__all__ = ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"]
 
 
 def _run_fixed(force, params, t, method, substeps, interval):
@@ -141,7 +90,7 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
     """
     t = _check_times(t)
     if isinstance(potential, BoundedPotential):
-        q, p = _run_fixed(_kernels.bspline_force, potential.params, t, method, substeps, interval)
+        q, p = _run_fixed(_spline_kernels.bspline_force, potential.params, t, method, substeps, interval)
         if check_resolution:
             curvature = np.abs(potential.d2V(SENSORS)).reshape(-1, SENSORS.size).max(axis=1)
             check_resolution_of(curvature, t, method, substeps, interval, potential.batched)
@@ -217,7 +166,8 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
     spline of the sensors; ``"pchip"`` uses the shape-preserving PCHIP interpolant.
 
     Args:
-        V: sensor values, shape (100,) or (N, 100); checked with :func:`check_bounded`.
+        V: sensor values, shape (100,) or (N, 100), or a potential with ``V(q)`` (sampled
+            at the sensors); checked with :func:`check_bounded`.
         t, method, substeps, interval: as in :func:`integrate`.
         interpolation: ``"cubic"`` or ``"pchip"``.
         check_resolution: warn when the step is too coarse (negligible cost).
@@ -241,12 +191,12 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
         (100,)
     """
     t = _check_times(t)
-    V = check_bounded(V)
+    V = check_bounded(sensor_values(V))
     single = V.ndim == 1
     params = sensor_spline_params(np.atleast_2d(V), interpolation)
     if check_resolution:
         check_resolution_of(spline_curvature(params), t, method, substeps, interval, not single)
-    q, p = _run_fixed(_kernels.grid_force, params, t, method, substeps, interval)
+    q, p = _run_fixed(_spline_kernels.grid_force, params, t, method, substeps, interval)
     if check_resolution:
         last = int(np.argmax(t))
         check_energy(spline_drift(params, q[:, last], p[:, last]), t, method, substeps,
@@ -265,59 +215,3 @@ def paper_rk4(V, t=TIMES):
         (q, p) of shape (M,) or (N, M).
     """
     return integrate_sensors(V, t, method="rk4", substeps=1, interpolation="pchip")
-
-
-def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=False,
-                    max_steps=10_000_000):
-    """High-accuracy solve used for truth.
-
-    For a :class:`BoundedPotential` the equations are solved in the curve parameter λ of
-    the B-spline (λ' = p / q'(λ), p' = -V'(λ) / q'(λ)), which needs no inversion of q(λ),
-    by an adaptive Dormand–Prince 5(4) method that lands exactly on every query time
-    (compiled, parallel over the batch). Any other potential with ``dV`` is solved by
-    scipy's DOP853 at ``rtol = atol = 1e-13``.
-
-    Args:
-        potential: a :class:`BoundedPotential` (single or batch) or an object with
-            ``dV``.
-        t: query times, shape (M,).
-        rtol, atol: local error tolerances of the adaptive method (B-spline potentials).
-        full_output: also return a dict with ``"energy_error"`` (max over t of
-            ``|p²/2 + V(q) - V0|``, per potential) and ``"steps"`` (accepted steps, -1 if
-            ``max_steps`` was exhausted; for scipy's DOP853, its function evaluations).
-        max_steps: step budget per potential.
-
-    Returns:
-        (q, p), or (q, p, info) with ``full_output``; shapes as in :func:`integrate`.
-    """
-    t = _check_times(t)
-    order = np.argsort(t, kind="stable")
-    ts = np.ascontiguousarray(t[order])
-    if isinstance(potential, BoundedPotential):
-        n = potential.params.shape[0]
-        oq, op, ov = (np.empty((n, ts.size)) for _ in range(3))
-        steps = np.empty(n, dtype=np.int64)
-        _kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps)
-        energy = np.max(np.abs(ov - V0), axis=1)
-    elif hasattr(potential, "dV"):
-        sol = sp_integrate.solve_ivp(
-            lambda _, y: (y[1], -float(potential.dV(y[0]))), (0.0, max(ts[-1], 1e-300)),
-            (0.0, 0.0), method="DOP853", t_eval=ts, rtol=1e-13, atol=1e-13,
-        )
-        if not sol.success:
-            raise RuntimeError(f"reference solve failed: {sol.message}")
-        oq, op = sol.y[0][None, :], sol.y[1][None, :]
-        energy = np.max(np.abs(0.5 * op**2 + potential.V(oq) - V0), axis=1)
-        steps = np.array([sol.nfev])
-    else:
-        raise TypeError("potential must be a BoundedPotential or have a dV(q) method")
-    q = np.empty_like(oq)
-    p = np.empty_like(op)
-    q[:, order] = oq
-    p[:, order] = op
-    single = not (isinstance(potential, BoundedPotential) and potential.batched)
-    if single:
-        q, p, energy, steps = q[0], p[0], energy[0], steps[0]
-    if full_output:
-        return q, p, {"energy_error": energy, "steps": steps}
-    return q, p

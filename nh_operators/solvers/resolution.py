@@ -1,7 +1,7 @@
 """When a fixed step is too coarse: the checks behind :class:`ResolutionWarning`.
 
-The fixed-step solvers of :mod:`nh_operators.solvers` call these after (or before) a
-solve: the step against the potential's curvature (h·sqrt(max |V''|) against the
+The fixed-step solvers of :mod:`nh_operators.solvers.fixed_step` call these after (or before) a
+solve: the step against the potential's curvature (h·sqrt(max ``|V''|``) against the
 method's linear stability limit), the energy drift at the last query time, and, for a
 formula, a kink (a jump of the force), across which fixed steps are first order.
 """
@@ -11,7 +11,8 @@ import warnings
 
 import numpy as np
 
-from ._constants import V0
+from .._constants import V0
+from .schemes import ORDERS, _method, _step_grid
 
 __all__ = ["ResolutionWarning", "STABILITY_LIMITS", "RESOLUTION_FRACTION", "ENERGY_DRIFT_TOL",
            "check_resolution_of", "check_energy", "check_formula", "spline_curvature",
@@ -21,15 +22,15 @@ __all__ = ["ResolutionWarning", "STABILITY_LIMITS", "RESOLUTION_FRACTION", "ENER
 #: of modulus above 1 (RK4 2√2, Verlet 2; Yoshida's by bisection, see test_stability).
 STABILITY_LIMITS = {"rk4": 2.0 * math.sqrt(2.0), "verlet": 2.0, "yoshida4": 1.5734,
                     "yoshida6": 1.5954, "yoshida8": 1.5377}
-#: A step h is flagged when h·sqrt(max |V''|) exceeds this fraction of the stability limit
+#: A step h is flagged when h·sqrt(max ``|V''|``) exceeds this fraction of the stability limit
 #: (RK4: √2, where a step of an oscillation loses 2.6 % of its amplitude). The sensor
 #: splines of the generator's 14,000 potentials (standard.h5, test.h5) reach 1.233 at one
 #: RK4 step per output interval (PCHIP: 1.164).
 RESOLUTION_FRACTION = 0.5
-#: |p²/2 + V(q) - V0| at the last query time above which the step is flagged, by force
+#: ``|p²/2 + V(q) - V0|`` at the last query time above which the step is flagged, by force
 #: source. On standard.h5 + test.h5 the cubic-spline drift stays below 0.034 at one RK4
 #: step per interval (0.013: two Yoshida-8 steps), PCHIP's (C¹ only) below 0.36; a deep
-#: well (min V = -100) drifts by 0.28 at four RK4 steps although h·sqrt(max |V''|) = 0.44.
+#: well (min V = -100) drifts by 0.28 at four RK4 steps although h·sqrt(max ``|V''|``) = 0.44.
 ENERGY_DRIFT_TOL = {"cubic": 0.1, "pchip": 1.0, "formula": 0.1}
 #: Probes of a formula's force (curvature, kinks): spacing 1/2048, offset from q = 1/2.
 _PROBE = (np.arange(2048) + 0.381966) / 2048
@@ -42,7 +43,7 @@ class ResolutionWarning(UserWarning):
 
 
 def spline_curvature(params):
-    """max |V''| per row of piecewise cubics (V'' is linear on a piece: its ends suffice)."""
+    """max ``|V''|`` per row of piecewise cubics (V'' is linear on a piece: its ends suffice)."""
     c = params.reshape(params.shape[0], -1, 4)
     start = 2.0 * c[..., 2]
     end = np.abs(start + 6.0 * c[..., 3])
@@ -50,7 +51,7 @@ def spline_curvature(params):
 
 
 def spline_drift(params, q, p):
-    """|p²/2 + V(q) - V0| on each row's spline, at one point (q, p) per row."""
+    """``|p²/2 + V(q) - V0|`` on each row's spline, at one point (q, p) per row."""
     c = params.reshape(params.shape[0], -1, 4)
     x = np.nan_to_num(np.clip(q, 0.0, 1.0)) * c.shape[1]
     j = np.minimum(x.astype(np.int64), c.shape[1] - 1)
@@ -68,8 +69,6 @@ def check_energy(drift, t, method, substeps, source, batched, name="V"):
     tol = ENERGY_DRIFT_TOL[source]
     bad = np.flatnonzero(~(drift <= tol))
     if bad.size:
-        from .solvers import ORDERS
-
         e, goal, order = np.nan_to_num(drift[bad], nan=np.inf).max(), 0.01, ORDERS[method]
         need = (f"about {math.ceil(substeps * (e / goal) ** (1 / order))} substeps bring it "
                 f"below {goal:g} (at order {order})" if np.isfinite(e) else "use more substeps")
@@ -80,9 +79,7 @@ def check_energy(drift, t, method, substeps, source, batched, name="V"):
 
 
 def check_resolution_of(curvature, t, method, substeps, interval, batched, name="V", level=3):
-    """Warn if h·sqrt(max |V''|) exceeds RESOLUTION_FRACTION of the stability limit."""
-    from .solvers import _method, _step_grid
-
+    """Warn if h·sqrt(max ``|V''|``) exceeds RESOLUTION_FRACTION of the stability limit."""
     _method(method)
     limit = RESOLUTION_FRACTION * STABILITY_LIMITS[method]
     h, nsteps = _step_grid(t, substeps, interval)[2:]

@@ -20,6 +20,7 @@ import torch
 __all__ = ["CHECKPOINT", "load_checkpoint", "load_model", "write_atomic",
            "save_checkpoint", "write_history"]
 
+#: File name of a run's checkpoint inside its run directory.
 CHECKPOINT = "checkpoint.pt"
 CONFIG = "config.json"
 HISTORY = "history.csv"
@@ -104,7 +105,7 @@ def load_model(run_dir, device="cpu"):
     Example:
         >>> net, config = load_model("runs/traonet")  # doctest: +SKIP
     """
-    from .models import build_model, cast_network
+    from ..models import build_model, cast_network
 
     state = load_checkpoint(run_dir)
     config = state["config"]

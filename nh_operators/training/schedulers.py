@@ -17,7 +17,7 @@ insensitive"; with N = U the last rate is exactly η_inf.
 the scheduler is stepped once per epoch, as in the paper. DeepXDE's training loop
 steps a scheduler once per *iteration*; pass ``steps_per_epoch`` (iterations per
 epoch) and x = iteration / steps_per_epoch becomes a fractional epoch, so the curve is
-the same one, sampled finer. The trainer in :mod:`nh_operators.train` does this.
+the same one, sampled finer. The trainer in :mod:`nh_operators.training.trainer` does this.
 """
 
 import math

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import _figure
+from .._figures import new_figure as _figure
 
 __all__ = ["read_history", "plot_training_curves", "minutes_to_reach"]
 

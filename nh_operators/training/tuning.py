@@ -18,7 +18,7 @@ grid order (one shuffle seed), so they split the grid instead of repeating point
 worker that dies stops sending heartbeats and its trial is handed to another worker.
 The best configuration is rewritten atomically after each finished trial as a JSON
 file that ``nh-operators train --config`` reads (see
-:func:`~nh_operators.tuning_spaces.load_tuned_config`).
+:func:`~nh_operators.training.load_tuned_config`).
 """
 
 import os
@@ -32,11 +32,28 @@ import numpy as np
 import optuna
 from optuna.trial import TrialState
 
-from .train import TrainConfig, TrainingDiverged, train
-from .tuning_spaces import (SEARCH_SPACES, STAGES, TUNED_KEYS, get_space, grid_size,
-                            load_tuned_config, stage_params, tuned_train_kwargs)
-from .tuning_study import (DEFAULT_STORAGE, _best_trial, _check_settings, best_config,
-                           open_storage, open_study, study_name, write_best_config)
+from .config import TrainConfig, TrainingDiverged
+from .trainer import train
+from .tuning_spaces import (
+    SEARCH_SPACES,
+    STAGES,
+    TUNED_KEYS,
+    get_space,
+    grid_size,
+    load_tuned_config,
+    stage_params,
+    tuned_train_kwargs,
+)
+from .tuning_study import (
+    DEFAULT_STORAGE,
+    _best_trial,
+    _check_settings,
+    best_config,
+    open_storage,
+    open_study,
+    study_name,
+    write_best_config,
+)
 
 __all__ = ["DEFAULT_STORAGE", "SEARCH_SPACES", "STAGES", "TrialReporter", "best_config",
            "get_space", "load_tuned_config", "open_storage", "open_study", "study_name",
@@ -285,7 +302,7 @@ def tune(model, stage, data, *, n_trials=None, timeout=None, storage=DEFAULT_STO
             raise ValueError(f"base may not set {key!r} ({base[key]!r}): tune sets it")
     base.pop("model", None)
     if isinstance(data, (str, Path)):
-        from .data import load_dataset
+        from ..data import load_dataset
 
         data = load_dataset(data)
     st = open_study(model, stage, storage=storage, space=space, study=study,

@@ -1,6 +1,6 @@
 """Search spaces of the two tuning stages, and the tuned-config file ``train`` reads.
 
-No Optuna here: :mod:`nh_operators.tuning` runs the studies; this module holds the
+No Optuna here: :mod:`nh_operators.training.tuning` runs the studies; this module holds the
 plain data they search and the JSON file they leave behind, so that
 ``nh-operators train --config best.json`` works without importing Optuna.
 
@@ -27,11 +27,12 @@ import json
 import math
 from pathlib import Path
 
-from .models import MODELS, PRESETS, model_config
+from ..models import MODELS, PRESETS, model_config
 
 __all__ = ["SEARCH_SPACES", "STAGES", "TUNED_KEYS", "get_space", "stage_params",
            "grid_size", "load_tuned_config", "tuned_train_kwargs"]
 
+#: The paper's two tuning stages: a grid over the architecture, then TPE over the schedule.
 STAGES = ("grid", "tpe")
 
 #: Keys of a tuned-config file that ``train --config`` loads.

@@ -1,4 +1,4 @@
-"""Optuna storage and studies for :mod:`nh_operators.tuning`, and the best
+"""Optuna storage and studies for :mod:`nh_operators.training.tuning`, and the best
 configuration of a study as a tuned-config file.
 
 Every worker of a study opens it with the same name and storage; the study records the
@@ -14,14 +14,15 @@ from pathlib import Path
 import optuna
 from optuna.trial import TrialState
 
-from ._version import __version__
+from .._version import __version__
+from ..models import training_defaults
 from .checkpoint import write_atomic
-from .models import training_defaults
 from .tuning_spaces import SEARCH_SPACES, get_space, stage_params
 
 __all__ = ["DEFAULT_STORAGE", "best_config", "open_storage", "open_study", "study_name",
            "write_best_config"]
 
+#: Optuna storage used when none is given: a SQLite file in the working folder.
 DEFAULT_STORAGE = "sqlite:///tune.db"
 _SETTINGS = "nh_operators"  # study user attribute holding what every worker must share
 _HEARTBEAT = 30  # seconds; a trial silent for 4 heartbeats is failed and retried once
@@ -187,7 +188,7 @@ def write_best_config(study, path):
     """Atomically write :func:`best_config` as JSON (a temporary file, then a rename).
 
     Args:
-        study: an ``optuna.Study`` made by :func:`nh_operators.tuning.tune`.
+        study: an ``optuna.Study`` made by :func:`nh_operators.training.tune`.
         path: the JSON file (its folder must exist).
 
     Returns:

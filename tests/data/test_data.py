@@ -4,7 +4,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import nh_operators as nh
-from nh_operators.data import PRESETS, Dataset, generate_dataset, label_potentials, load_dataset
+from nh_operators.data import (
+    PRESETS,
+    Dataset,
+    generate_dataset,
+    label_potentials,
+    load_dataset,
+)
 
 
 @pytest.fixture(scope="module")
@@ -91,7 +97,7 @@ def test_missing_and_foreign_files(tmp_path):
 def test_resume_after_interruption_gives_identical_file(small, tmp_path, monkeypatch):
     ds, path = small
     target = tmp_path / "resumed.h5"
-    import nh_operators.data as data_mod
+    import nh_operators.data.generate as data_mod
 
     calls = {"n": 0}
     original = data_mod._Source.take

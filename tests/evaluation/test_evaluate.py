@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.evaluate import energy_error, loss_per_sample, summarize
+from nh_operators.evaluation import energy_error, loss_per_sample, summarize
 
 
 def test_summarize_matches_hand_values():

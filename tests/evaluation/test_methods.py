@@ -1,11 +1,18 @@
 import numpy as np
 import pytest
 import torch
+from model_helpers import tiny
 
 import nh_operators as nh
-from nh_operators.methods import (CLASSICAL_METHODS, EVALUATE_BASELINES, ClassicalMethod,
-                                  Method, NeuralMethod, classical_methods, dop853_sensors)
-from test_models import tiny
+from nh_operators.evaluation import (
+    CLASSICAL_METHODS,
+    EVALUATE_BASELINES,
+    ClassicalMethod,
+    Method,
+    NeuralMethod,
+    classical_methods,
+    dop853_sensors,
+)
 
 SHO = nh.PHYSICAL_POTENTIALS["sho"]
 

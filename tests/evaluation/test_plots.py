@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from nh_operators import PHYSICAL_POTENTIALS, SENSORS, TIMES
-from nh_operators.plots import (
+from nh_operators.evaluation import (
     log_bins,
     plot_loss_histograms,
     plot_physical_potentials,

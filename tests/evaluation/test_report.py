@@ -2,15 +2,21 @@ import json
 
 import numpy as np
 import pytest
+from model_helpers import tiny
 
 import nh_operators as nh
 from nh_operators.cli import main
 from nh_operators.data import generate_dataset
-from nh_operators.evaluate import loss_per_sample, physical_reference
-from nh_operators.methods import ClassicalMethod, NeuralMethod, classical_methods
-from nh_operators.report import EvaluationSettings, evaluate_methods
-from nh_operators.report_files import write_report
-from test_models import tiny
+from nh_operators.evaluation import (
+    ClassicalMethod,
+    EvaluationSettings,
+    NeuralMethod,
+    classical_methods,
+    evaluate_methods,
+    loss_per_sample,
+    physical_reference,
+    write_report,
+)
 
 FAST = EvaluationSettings(n_unbatched=4, n_single=2, n_batched=8, repeats=1)
 REQUIRED = {"test", "physical", "seconds_per_trajectory", "device"}

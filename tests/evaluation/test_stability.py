@@ -15,15 +15,34 @@ import torch
 from scipy.interpolate import CubicSpline
 
 import nh_operators as nh
-from nh_operators.evaluate import energy_error, loss_per_sample
+from nh_operators.evaluation import (
+    ENERGY_BOUNDS,
+    EXTREME_CASES,
+    case_properties,
+    energy_error,
+    extreme_potentials,
+    extreme_reference,
+    loss_per_sample,
+    stability_markdown,
+    stability_table,
+)
 from nh_operators.models import cast_network
-from nh_operators.solvers import (ENERGY_DRIFT_TOL, METHODS, RESOLUTION_FRACTION,
-                                  STABILITY_LIMITS, integrate, integrate_sensors, paper_rk4,
-                                  reference_solve)
-from nh_operators.stability import (ENERGY_BOUNDS, EXTREME_CASES, GENERATOR_DOMAIN,
-                                    OutOfDomainWarning, ResolutionWarning, case_properties,
-                                    domain_violations, extreme_potentials, extreme_reference,
-                                    stability_markdown, stability_table)
+from nh_operators.potentials import (
+    GENERATOR_DOMAIN,
+    OutOfDomainWarning,
+    domain_violations,
+)
+from nh_operators.solvers import (
+    ENERGY_DRIFT_TOL,
+    METHODS,
+    RESOLUTION_FRACTION,
+    STABILITY_LIMITS,
+    ResolutionWarning,
+    integrate,
+    integrate_sensors,
+    paper_rk4,
+    reference_solve,
+)
 
 POTS = extreme_potentials()
 SENSOR_VALUES = {name: pot.V(nh.SENSORS) for name, pot in POTS.items()}

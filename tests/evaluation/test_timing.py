@@ -4,8 +4,12 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.methods import Method
-from nh_operators.timing import device_info, seconds_per_trajectory, time_call
+from nh_operators.evaluation import (
+    Method,
+    device_info,
+    seconds_per_trajectory,
+    time_call,
+)
 
 
 class Sleeper(Method):
@@ -60,7 +64,7 @@ def test_device_info_names_the_cpu_and_threads():
 
 
 def test_busy_machine_warning_uses_the_load_average():
-    from nh_operators.timing import busy_machine_warning
+    from nh_operators.evaluation import busy_machine_warning
 
     assert busy_machine_warning({"load_average": 0.5, "cpu_count": 2}) is None
     text = busy_machine_warning({"load_average": 3.1, "cpu_count": 2})

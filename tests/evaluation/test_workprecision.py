@@ -2,8 +2,12 @@ import math
 
 import pytest
 
-from nh_operators.workprecision import (faster_interval, faster_statements,
-                                        work_precision_markdown, work_precision_rows)
+from nh_operators.evaluation import (
+    faster_interval,
+    faster_statements,
+    work_precision_markdown,
+    work_precision_rows,
+)
 
 
 def row(name, seconds, loss, kind="classical"):

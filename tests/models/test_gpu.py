@@ -3,12 +3,11 @@
 import numpy as np
 import pytest
 import torch
+from model_helpers import TINY, inputs, tiny
 
 import nh_operators as nh
 from nh_operators.data import generate_dataset
 from nh_operators.models import mamba
-
-from test_models import TINY, inputs, tiny
 
 pytestmark = pytest.mark.gpu
 
@@ -50,7 +49,7 @@ def test_training_on_cuda(amp, tmp_path):
 
 
 def test_timing_on_cuda_synchronises_and_names_the_gpu():
-    from nh_operators.timing import device_info, seconds_per_trajectory
+    from nh_operators.evaluation import device_info, seconds_per_trajectory
 
     method = nh.NeuralMethod(tiny("traonet").cuda(), "traonet", domain_check=False)
     calls = []

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.expression import FUNCTIONS, parse_expression, parse_potential
+from nh_operators.potentials import FUNCTIONS, parse_expression, parse_potential
 
 Q = np.linspace(0.01, 0.99, 56)  # even: no point on the kink of abs(q - 0.5)
 

@@ -4,8 +4,12 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.ood import OOD_FAMILIES, ood_potential, ood_potentials
-from nh_operators.stability import domain_violations
+from nh_operators.potentials import (
+    OOD_FAMILIES,
+    domain_violations,
+    ood_potential,
+    ood_potentials,
+)
 
 POTS = ood_potentials(40, seed=3)
 

@@ -1,9 +1,15 @@
-"""Tests of the named physical potentials (nh_operators.physical)."""
+"""Tests of the named physical potentials (nh_operators.potentials.physical)."""
 
 import numpy as np
 import pytest
 
-from nh_operators import PHYSICAL_POTENTIALS, SENSORS, V0, AnalyticPotential, check_bounded
+from nh_operators import (
+    PHYSICAL_POTENTIALS,
+    SENSORS,
+    V0,
+    AnalyticPotential,
+    check_bounded,
+)
 
 NAMES = ["sho", "double_well", "morse", "mff", "smff"]
 ALPHA = 20.0  # the paper's SMFF softening parameter

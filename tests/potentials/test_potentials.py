@@ -8,7 +8,7 @@ from scipy.interpolate import BSpline
 from scipy.optimize import brentq
 
 from nh_operators import SENSORS, V0, BoundedPotential, check_bounded
-from nh_operators.bspline import MAX_CONTROL, clamped_knots
+from nh_operators.potentials.bspline import MAX_CONTROL, clamped_knots
 
 
 def _random_controls(rng, n_control):
@@ -88,7 +88,7 @@ def test_straight_control_polygon_gives_a_straight_line():
 def test_force_outside_the_interval_continues_then_is_held():
     # a stage that overshoots a turning point sees the end piece continued smoothly;
     # beyond OUTSIDE_MARGIN the force is held at its end value
-    from nh_operators._kernels import OUTSIDE_MARGIN
+    from nh_operators.potentials._spline_kernels import OUTSIDE_MARGIN
 
     pot = BoundedPotential([0, 0.2, 0.5, 0.8, 1], [2, -1, 1.5, -2, 2])
     for end, sign in ((0.0, -1.0), (1.0, 1.0)):

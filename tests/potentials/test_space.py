@@ -8,7 +8,7 @@ from scipy.interpolate import BSpline
 
 # nh_operators first: it selects DeepXDE's PyTorch backend before deepxde is imported
 from nh_operators import V0, BoundedPotential, BoundedPotentialSpace  # isort: skip
-from nh_operators.bspline import MAX_CONTROL, clamped_knots  # isort: skip
+from nh_operators.potentials.bspline import MAX_CONTROL, clamped_knots  # isort: skip
 from deepxde.data.function_spaces import FunctionSpace  # isort: skip
 
 MAX_GRF = MAX_CONTROL - 2

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.unbounded import extend_monotone
+from nh_operators.potentials import extend_monotone
 
 
 def free_fall():

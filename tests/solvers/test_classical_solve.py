@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.classical_solve import as_potential, solve_classical
-from nh_operators.evaluate import loss_per_sample, physical_reference
+from nh_operators.evaluation import loss_per_sample, physical_reference
+from nh_operators.potentials import as_potential
+from nh_operators.solvers import solve_classical
 
 T = np.array([1.7, 0.05, 0.6, 2.0, 1.1])  # unsorted on purpose
 

@@ -11,7 +11,6 @@ from nh_operators import PHYSICAL_POTENTIALS, SENSORS, TIMES
 from nh_operators.solvers import METHODS, integrate, integrate_sensors, paper_rk4
 
 
-
 def test_sensor_solver_is_exact_for_a_quadratic_potential():
     # the not-a-knot cubic spline reproduces the SHO's quadratic exactly, so the sensor
     # solver is the exact-potential solver (stages that overshoot q = 1 at the turning
@@ -98,7 +97,8 @@ def test_bad_sensor_values():
 
 
 def test_compiled_not_a_knot_spline_equals_scipys_and_ignores_the_batch(pots):
-    from nh_operators.solvers import _piece_coefficients, sensor_spline_params
+    from nh_operators.solvers import sensor_spline_params
+    from nh_operators.solvers.fixed_step import _piece_coefficients
 
     V = np.vstack([pots.V(SENSORS), 8.0 * (SENSORS - 0.5) ** 2, np.sin(7 * SENSORS) + 1])
     ours = sensor_spline_params(V)

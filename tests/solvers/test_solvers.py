@@ -24,7 +24,6 @@ from nh_operators.solvers import (
     reference_solve,
 )
 
-
 SHO = PHYSICAL_POTENTIALS["sho"]
 MFF = PHYSICAL_POTENTIALS["mff"]
 MORSE = PHYSICAL_POTENTIALS["morse"]
@@ -93,7 +92,7 @@ def morse_reference():
         return dop853(lambda q: -MORSE.dV(q), t, rtol=1e-14, atol=1e-14)
 
 
-@pytest.mark.filterwarnings("ignore::nh_operators.resolution.ResolutionWarning")  # coarse on purpose
+@pytest.mark.filterwarnings("ignore::nh_operators.solvers.ResolutionWarning")  # coarse on purpose
 @pytest.mark.parametrize(("name", "method"), list(ORDER_SUBSTEPS))
 def test_fitted_convergence_order(name, method, morse_reference):
     t = np.linspace(0.0, 2.0, 11)  # output interval 0.2, h = 0.2 / substeps
@@ -109,7 +108,7 @@ def test_fitted_convergence_order(name, method, morse_reference):
     assert fitted_order(substeps, errors) == pytest.approx(ORDERS[method], abs=0.3)
 
 
-@pytest.mark.filterwarnings("ignore::nh_operators.resolution.ResolutionWarning")  # coarse on purpose
+@pytest.mark.filterwarnings("ignore::nh_operators.solvers.ResolutionWarning")  # coarse on purpose
 @pytest.mark.parametrize("method", list(METHODS))
 def test_mff_converges_slowly_across_the_kink(method):
     # the force jumps from +4 to -4 at q = 1/2: fixed steps are first order there
@@ -298,7 +297,7 @@ def test_hermite_interpolation_is_fourth_order(method):
     assert fitted_order(substeps, errors) == pytest.approx(4.0, abs=0.3)
 
 
-@pytest.mark.filterwarnings("ignore::nh_operators.resolution.ResolutionWarning")  # coarse on purpose
+@pytest.mark.filterwarnings("ignore::nh_operators.solvers.ResolutionWarning")  # coarse on purpose
 def test_interval_sets_the_step():
     t = np.array([0.3, 1.1])
     q_exact, p_exact = SHO.exact(t)

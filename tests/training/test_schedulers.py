@@ -100,7 +100,7 @@ def test_bad_arguments_are_named(kwargs, match):
 
 
 def test_adjusted_infimum_matches_hand_computation():
-    from nh_operators.schedulers import adjusted_infimum_lr
+    from nh_operators.training import adjusted_infimum_lr
 
     # MambONet's tuned values (paper, TPE table): eta0 = 9.7931e-4, eta_inf = 1.0310e-5,
     # U = 350. By hand, N = 250: h(0) = sqrt(250/350 (2 - 250/350)) = 0.958315;

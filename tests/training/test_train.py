@@ -6,12 +6,11 @@ import json
 import numpy as np
 import pytest
 import torch
+from model_helpers import TINY
 
 import nh_operators as nh
-from nh_operators.checkpoint import load_checkpoint
 from nh_operators.data import generate_dataset
-
-from test_models import TINY
+from nh_operators.training import load_checkpoint
 
 
 @pytest.fixture(scope="module")
@@ -172,7 +171,7 @@ def test_predict_errors_are_named():
 
 
 def test_kl_column_is_the_papers_beta_term_per_output():
-    from nh_operators.operator_data import OperatorData
+    from nh_operators.data import OperatorData
 
     torch.manual_seed(0)
     net = nh.build_model("varonet", "cpu", **TINY["varonet"]).eval()

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from nh_operators.training_plots import plot_training_curves, read_history
+from nh_operators.training import plot_training_curves, read_history
 
 
 def write_history(path, rows):
@@ -36,7 +36,7 @@ def test_errors(tmp_path):
 
 
 def test_minutes_to_reach_extrapolates_a_power_law_and_sees_a_plateau():
-    from nh_operators.training_plots import minutes_to_reach
+    from nh_operators.training import minutes_to_reach
 
     m = np.linspace(1, 20, 20)
     minutes, slope = minutes_to_reach({"seconds": 60 * m, "val_loss": 0.5 * m**-2.0}, 5e-5)

@@ -7,14 +7,21 @@ import sys
 
 import optuna
 import pytest
+from model_helpers import TINY
 
 from nh_operators.cli import main
 from nh_operators.data import generate_dataset
-from nh_operators.tuning import (SEARCH_SPACES, TrialReporter, best_config, get_space,
-                                 load_tuned_config, open_study, tune, tuned_train_kwargs)
-from nh_operators.tuning_spaces import grid_size
-
-from test_models import TINY
+from nh_operators.training import (
+    SEARCH_SPACES,
+    TrialReporter,
+    best_config,
+    get_space,
+    grid_size,
+    load_tuned_config,
+    open_study,
+    tune,
+    tuned_train_kwargs,
+)
 
 GRID = {"hidden_size": [8, 16], "hidden_layers": [1, 2], "branches": [2, 4]}
 SPACE = {
@@ -43,7 +50,7 @@ def grid_study(data, tmp_path_factory):
     space = tmp / "tiny.json"
     space.write_text(json.dumps(SPACE))
     url, best = f"sqlite:///{tmp / 'tune.db'}", tmp / "best.json"
-    cmd = [sys.executable, "-m", "nh_operators.cli", "tune", "--model", "deeponet",
+    cmd = [sys.executable, "-m", "nh_operators.cli.main", "tune", "--model", "deeponet",
            "--stage", "grid", "--trials", "4", "--storage", url, "--data", str(data),
            "--space", str(space), "--out", str(best), "--workdir", str(tmp / "runs"),
            "--threads", "1"]
@@ -210,7 +217,7 @@ def test_unknown_model_stage_space_and_a_rejected_storage_are_clear_errors(data,
 
 
 def test_an_interrupted_grid_trial_is_queued_again(data, tmp_path, monkeypatch):
-    import nh_operators.tuning as tuning
+    import nh_operators.training.tuning as tuning
 
     space = {**SPACE, "epochs": 1, "seeds": 1,
              "grid": {"deeponet": {**GRID, "hidden_size": [8], "hidden_layers": [1]}}}
@@ -232,7 +239,7 @@ def test_an_interrupted_grid_trial_is_queued_again(data, tmp_path, monkeypatch):
 
 
 def test_a_trial_started_past_the_grids_end_is_recognised_as_extra():
-    from nh_operators.tuning import _extra_grid_trial, _grid_left
+    from nh_operators.training.tuning import _extra_grid_trial, _grid_left
 
     study = open_study("deeponet", "grid", storage=optuna.storages.InMemoryStorage(),
                        space={**SPACE, "grid": {"deeponet": {"branches": [2, 4]}}})

@@ -1,0 +1,103 @@
+"""``nh-operators predict`` and ``demo``: trajectories of typed and physical potentials."""
+
+import os
+import warnings
+
+import numpy as np
+
+from .._constants import TIMES
+from .._metrics import loss_per_sample
+from ..evaluation import (
+    CLASSICAL_BASELINES,
+    classical_physical_table,
+    physical_reference,
+    plot_physical_potentials,
+    plot_trajectory,
+    save_figure,
+)
+from ..potentials import PHYSICAL_POTENTIALS, as_potential
+from ..solvers import solve_classical
+from ..solving import available_pretrained, pretrained, solve
+
+
+def _demo(args):
+    os.makedirs(args.out, exist_ok=True)
+    networks = {name: pretrained(name) for name in available_pretrained()}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = classical_physical_table(baselines={**CLASSICAL_BASELINES, **networks})
+    outside = sorted({str(w.message).split(":")[0] for w in caught
+                      if type(w.message).__name__ == "OutOfDomainWarning"})
+    names = list(PHYSICAL_POTENTIALS)
+    print("Classical solvers and the shipped networks on the physical potentials: L_tot "
+          "against the exact solution")
+    print("(SHO, MFF) or DOP853 at 1e-13; sensor methods and networks see V at the 100 "
+          "sensors only.\n")
+    print(f"{'method':<22}" + "".join(f"{n:>13}" for n in names) + f"{'µs/traj':>10}")
+    for method, row in table.items():
+        micro = 1e6 * sum(row[n]["seconds"] for n in names) / len(names)
+        print(f"{method:<22}" + "".join(f"{row[n]['L_tot']:>13.3e}" for n in names) + f"{micro:>10.0f}")
+    if outside:
+        print(f"\nOutside the training domain (extrapolation): {'; '.join(outside)}")
+    trajectories = {n: physical_reference(n) for n in names}
+    path = os.path.join(args.out, "physical_potentials.png")
+    save_figure(plot_physical_potentials(PHYSICAL_POTENTIALS, trajectories), path)
+    print(f"\nfigure: {path}")
+    if networks:
+        best = min(networks, key=lambda m: table[m]["double_well"]["L_tot"])
+        pot = PHYSICAL_POTENTIALS["double_well"]
+        sol = solve(pot, TIMES, method=best)
+        q, p = trajectories["double_well"]
+        path = os.path.join(args.out, f"double_well_{best}.png")
+        save_figure(plot_trajectory(pot, TIMES, q, p, sol.q, sol.p, label=best,
+                                    title=f"double well: {best} (estimated L_tot "
+                                    f"{sol.error_estimate:.2g})"), path)
+        print(f"figure: {path} (nh.solve('double_well', t, method={best!r}))")
+
+
+def _predict(args):
+    times = TIMES if args.times is None else np.asarray(args.times, dtype=np.float64)
+    pot, _ = as_potential(args.potential)  # safe parse and the bounded checks
+    sol = solve(pot, times, tol=args.tol, method=args.model)
+    ref = solve_classical(pot, times, tol=1e-12, method="yoshida8")
+    true = float(loss_per_sample(sol.q, sol.p, ref.q, ref.p)["L_tot"])
+    formula = getattr(pot, "formula", args.potential)
+    print(f"V(q) = {formula}")
+    print(f"method: {sol.method} ({sol.kind}; {sol.reason}), {1e3 * sol.seconds:.2f} ms")
+    print(f"estimated L_tot {sol.error_estimate:.3g}; L_tot against a Yoshida-8 solve at "
+          f"1e-12: {true:.3g}" + ("" if args.tol is None else f"; tol {args.tol:g}"))
+    rows = np.arange(times.size)
+    if rows.size > args.rows:
+        rows = np.unique(np.linspace(0, times.size - 1, args.rows).round().astype(int))
+        print(f"({rows.size} of {times.size} times shown; --rows changes it)")
+    print(f"{'t':>8} {'q':>12} {'p':>12} {'|q - ref|':>11} {'|p - ref|':>11}")
+    for i in rows:
+        print(f"{times[i]:8.4f} {sol.q[i]:12.6f} {sol.p[i]:12.6f} "
+              f"{abs(sol.q[i] - ref.q[i]):11.2e} {abs(sol.p[i] - ref.p[i]):11.2e}")
+    if args.out:
+        order = np.argsort(times, kind="stable")
+        fig = plot_trajectory(pot, times[order], ref.q[order], ref.p[order],
+                              sol.q[order], sol.p[order], label=sol.method,
+                              title=f"V(q) = {formula}: {sol.method}, L_tot {true:.2g}")
+
+        save_figure(fig, args.out)
+        print(f"figure: {args.out}")
+
+
+def register(sub):
+    """Add this module's commands to the subparsers ``sub``."""
+    demo = sub.add_parser("demo", help="classical solvers on the physical potentials")
+    demo.add_argument("--out", default="demo", help="folder for the figure")
+    demo.set_defaults(run=_demo)
+    pr = sub.add_parser("predict", help="one potential typed as a formula: the trajectory "
+                        "table and figure")
+    pr.add_argument("--potential", required=True, help="an expression in q, e.g. "
+                    "'8*(q-0.5)**2', or a physical potential's name (sho, ...)")
+    pr.add_argument("--model", default="auto", help="auto (default), classical, an "
+                    "integrator, or a shipped model (deeponet, traonet, ...)")
+    pr.add_argument("--times", type=float, nargs="+", help="query times (default: the "
+                    "100-point grid on [0, 2])")
+    pr.add_argument("--tol", type=float, help="target L_tot (auto picks the method)")
+    pr.add_argument("--rows", type=int, default=20, help="table rows at most (default 20)")
+    pr.add_argument("--out", help="figure file (.png, .pdf, .svg)")
+    pr.set_defaults(run=_predict)

@@ -1,0 +1,127 @@
+"""``nh-operators train`` and ``tune``: DeepXDE's loop, and Optuna studies over it."""
+
+import ast
+
+import optuna
+import torch
+
+from ..models import MODELS, count_parameters
+from ..training import (
+    TrainConfig,
+    best_config,
+    study_name,
+    train,
+    tune,
+    tuned_train_kwargs,
+)
+
+
+def _arch_overrides(items):
+    arch = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--arch takes KEY=VALUE, got {item!r}")
+        try:
+            arch[key] = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            arch[key] = value
+    return arch
+
+
+def _train(args):
+    tuned = tuned_train_kwargs(  # --config FILE, explicit flags on top
+        args.config, model=args.model, preset=args.preset, arch=_arch_overrides(args.arch),
+        lr=args.lr, upper_bound=args.upper_bound, infimum_lr=args.infimum_lr, beta=args.beta)
+    config = TrainConfig(**tuned, epochs=args.epochs, seed=args.seed,
+                         batch_size=args.batch_size, scheduler=args.scheduler,
+                         dtype=args.dtype, device=args.device, amp=args.amp)
+    net, history = train(config, args.data, args.out, resume=args.resume,
+                         progress=not args.quiet, max_minutes=args.max_minutes,
+                         stop_after=args.stop_after)
+    last = history[-1]
+    print(f"{config.model} ({config.preset}, {count_parameters(net)} parameters): "
+          f"{last['epoch']} epochs in {last['seconds'] / 60:.1f} min, train loss "
+          f"{last['train_loss']:.3e}, validation loss {last['val_loss']:.3e}; "
+          f"run directory {args.out}")
+
+
+def _tune(args):
+    optuna.logging.set_verbosity(optuna.logging.WARNING)  # tune prints a line per trial
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    base = tuned_train_kwargs(args.config, model=args.model, arch=_arch_overrides(args.arch))
+    model = base.pop("model")
+    out = args.out or (args.study or study_name(model, args.stage, args.space)) + ".json"
+    study = tune(model, args.stage, args.data, n_trials=args.trials, timeout=args.timeout,
+                 storage=args.storage, space=args.space, study=args.study,
+                 epochs=args.epochs, seeds=args.seeds, base=base, workdir=args.workdir,
+                 out=out, device=args.device)
+    best = best_config(study)
+    if best is None:
+        print(f"{study.study_name}: no trial has completed yet; nothing written")
+        return
+    info = best["tuning"]
+    params = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                       for k, v in info["params"].items())
+    print(f"{study.study_name}: best trial {info['trial']} of {sum(info['trials'].values())}"
+          f" ({params}): mean validation loss {info['value']:.4g}; written to {out} "
+          f"(nh-operators train --config {out} ...)")
+
+
+def register(sub):
+    """Add this module's commands to the subparsers ``sub``."""
+    tr = sub.add_parser("train", help="train a network in DeepXDE's loop")
+    tr.add_argument("--model", choices=list(MODELS), help="the network (or from --config)")
+    tr.add_argument("--config", metavar="FILE.json", help="tuned values (nh-operators "
+                    "tune --out): arch, lr, upper bound, infimum, beta; flags win")
+    tr.add_argument("--preset", choices=["paper", "cpu"],
+                    help="architecture preset (default: the config's, else cpu)")
+    tr.add_argument("--data", required=True, help="dataset .h5 (nh-operators generate)")
+    tr.add_argument("--epochs", type=int, default=10)
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--out", required=True, help="run directory")
+    tr.add_argument("--resume", action="store_true", help="continue a killed run in --out")
+    tr.add_argument("--max-minutes", type=float,
+                    help="wall-time budget over the whole run; stops after the epoch "
+                         "that passes it (checkpoint kept, --resume continues)")
+    tr.add_argument("--stop-after", type=int, metavar="EPOCH",
+                    help="stop after this epoch of the --epochs schedule (reproduces a "
+                         "run that --max-minutes cut)")
+    tr.add_argument("--arch", action="append", metavar="KEY=VALUE",
+                    help="architecture override, repeatable (e.g. --arch d_model=64)")
+    tr.add_argument("--batch-size", type=int, default=100)
+    tr.add_argument("--lr", type=float, help="initial learning rate (default: paper's)")
+    tr.add_argument("--upper-bound", type=float, help="schedule upper bound U")
+    tr.add_argument("--infimum-lr", type=float, help="schedule infimum")
+    tr.add_argument("--beta", type=float, help="KL weight (VaRONet)")
+    tr.add_argument("--scheduler", default="exphyperbolic",
+                    choices=["exphyperbolic", "hyperbolic", "constant"])
+    tr.add_argument("--dtype", default="float32", choices=["float32", "float64"])
+    tr.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
+    tr.add_argument("--amp", action="store_true", help="float16 autocast (CUDA only)")
+    tr.add_argument("--quiet", action="store_true", help="no progress bar")
+    tr.set_defaults(run=_train)
+    tu = sub.add_parser("tune", help="tune with Optuna: stage grid (architecture) or tpe "
+                        "(lr, upper bound, infimum, beta); workers may share a study")
+    tu.add_argument("--model", choices=list(MODELS), help="the network (or from --config)")
+    tu.add_argument("--stage", required=True, choices=["grid", "tpe"])
+    tu.add_argument("--data", required=True, help="dataset .h5 (validation part scores)")
+    tu.add_argument("--trials", type=int, help="trials of this worker (default: the "
+                    "rest of the grid; tpe needs --trials or --timeout)")
+    tu.add_argument("--timeout", type=float, metavar="MINUTES", help="start no trial after")
+    tu.add_argument("--storage", default="sqlite:///tune.db", help="Optuna RDB URL")
+    tu.add_argument("--study", help="study name (default: MODEL-STAGE-SPACE)")
+    tu.add_argument("--space", default="cpu", help="search space: cpu, paper or FILE.json")
+    tu.add_argument("--epochs", type=int, help="epochs per run (default: the space's)")
+    tu.add_argument("--seeds", type=int, help="runs per trial, averaged (default: space's)")
+    tu.add_argument("--config", metavar="FILE.json", help="start from these values (the "
+                    "grid stage's best for tpe)")
+    tu.add_argument("--arch", action="append", metavar="KEY=VALUE", help="architecture "
+                    "override, repeatable")
+    tu.add_argument("--out", help="best configuration, JSON (default: STUDY.json)")
+    tu.add_argument("--workdir", help="keep run directories here (default: temporary)")
+    tu.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
+    tu.add_argument("--threads", type=int, help="torch threads of this worker (CPU: cores "
+                    "left free / workers; 1 on a busy machine)")
+    tu.set_defaults(run=_tune)

@@ -1,0 +1,305 @@
+"""``solve(potential, t, tol=..., method="auto")``: a network when it is expected to be
+cheaper and its estimate meets the tolerance, the classical solver otherwise.
+
+How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
+
+1. Without ``tol``: the classical solver at :data:`DEFAULT_TOL`.
+2. A shipped network is a candidate when it has a calibration
+   (``weights/NAME/calibration.json``, :func:`calibrate_pretrained`), the input is in
+   its domain (the sensor values inside what the generator produces:
+   :func:`~nh_operators.domain_violations`; the times inside [0, 2]), and it is expected
+   to be cheaper: with P the share of its calibration set whose calibrated estimate met
+   ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
+   T_classical(tol), where T_classical is the one for this kind of input (a generator
+   B-spline, sensor values, or a formula, which the solver integrates in Python).
+3. The cheapest candidate predicts on :data:`TIMES`; its estimate is ``factor · (E + D)``
+   (energy residual plus Picard defect, :mod:`nh_operators.solving.estimate`). At or below
+   ``tol`` its prediction, interpolated to ``t`` by cubic splines, is returned;
+   otherwise the classical solver runs, and the record lists both attempts.
+
+The classical solver (:func:`~nh_operators.solve_classical`) doubles RK4 substeps until
+its own estimate is met; it computes exactly the requested times.
+"""
+
+import functools
+import json
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._constants import SENSORS, TIMES
+from ..potentials import as_potential
+from ..solvers import ORDERS, adaptive_solve
+from .estimate import acceptance_rate, raw_estimate, sensor_force
+
+__all__ = ["Solution", "solve", "DEFAULT_TOL", "CALIBRATION"]
+
+#: Tolerance of the classical solve when none is given.
+DEFAULT_TOL = 1e-8
+#: File of a shipped model's calibration, next to its weights.
+CALIBRATION = "calibration.json"
+
+
+@dataclass
+class Solution:
+    """What :func:`solve` returns.
+
+    Attributes:
+        q, p: float64 arrays (M,) at the requested times, in their order.
+        method: the method that produced them (``"rk4"``, ``"deeponet"``, ...).
+        kind: ``"classical"`` or ``"neural"``.
+        error_estimate: estimated L_tot of (q, p) against the true trajectory.
+        seconds: wall time of the whole call.
+        tol: the tolerance asked for (``None`` if none).
+        reason: why this method was used, in words.
+        tried: one dict per method run (method, error_estimate, seconds, accepted).
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    method: str
+    kind: str
+    error_estimate: float
+    seconds: float
+    tol: float = None
+    reason: str = ""
+    tried: list = field(default_factory=list)
+
+
+@functools.lru_cache(maxsize=None)
+def _model(name):
+    from .shipped import WEIGHTS, pretrained
+
+    model = pretrained(name)
+    path = WEIGHTS / name / CALIBRATION
+    model.calibration = json.loads(path.read_text()) if path.is_file() else None
+    return model
+
+
+def _sensor_values(pot, information):
+    return np.asarray(pot if information == "sensors" else pot.V(SENSORS), dtype=np.float64)
+
+
+def _rows(fn):
+    return lambda x: np.asarray(fn(x.reshape(-1)), dtype=np.float64).reshape(x.shape)
+
+
+def neural_solve(name, pot, information, t):
+    """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t.
+
+    Returns:
+        (q, p, estimate): the estimate is the calibrated one, or the raw E + D when the
+        model has no calibration.
+    """
+    from .._backend import single_threaded
+
+    with single_threaded():
+        return _neural_solve(name, pot, information, t)
+
+
+def neural_raw(name, pot, information):
+    """Model ``name``'s prediction (q, p) on :data:`TIMES` and its uncalibrated E + D."""
+    from ..models import predict
+
+    V = _sensor_values(pot, information)
+    q, p = predict(_model(name).net, V[None], TIMES, batch_size=1)
+    if information == "sensors":
+        force = sensor_force(V)
+    else:
+        force = (_rows(pot.V), _rows(pot.dV))
+    raw = float(raw_estimate(q, p, *force)[0])
+    return q, p, (raw if np.isfinite(raw) else np.inf)  # inf: e.g. far outside [0, 1]
+
+
+def _neural_solve(name, pot, information, t):
+    from scipy.interpolate import CubicSpline
+
+    model = _model(name)
+    q, p, raw = neural_raw(name, pot, information)
+    factor = model.calibration["factor"] if model.calibration else 1.0
+    if np.array_equal(t, TIMES):
+        return q[0], p[0], factor * raw
+    return CubicSpline(TIMES, q[0])(t), CubicSpline(TIMES, p[0])(t), factor * raw
+
+
+#: Which of the calibration's classical timings applies to a kind of input.
+_TIMINGS = {"bspline": "classical_seconds", "sensors": "classical_seconds_sensors",
+            "formula": "classical_seconds_formula"}
+
+
+def _input_kind(pot, information):
+    from ..potentials import BoundedPotential
+
+    if information == "sensors":
+        return "sensors"
+    return "bspline" if isinstance(pot, BoundedPotential) else "formula"
+
+
+def _classical_seconds(calibration, tol, kind="bspline"):
+    tols = np.log10(calibration["classical_tols"])
+    seconds = calibration.get(_TIMINGS[kind], calibration["classical_seconds"])
+    return float(np.interp(-np.log10(tol), -tols, seconds))
+
+
+@functools.lru_cache(maxsize=256)
+def _ranked(tol, kind, calibrations):
+    """(best network or None, its expected seconds and share, notes) for ``tol`` and a
+    kind of input (:data:`_TIMINGS`); cached per tolerance, kind and calibration
+    (``calibrations``: ids, so a new one is seen)."""
+    best, notes = None, []
+    for name in _networks():
+        cal = _model(name).calibration
+        if cal is None:
+            notes.append(f"{name}: not calibrated")
+            continue
+        share = acceptance_rate(cal, tol)
+        t_cls = _classical_seconds(cal, tol, kind)
+        expected = cal["neural_seconds"] + (1.0 - share) * t_cls
+        if expected >= t_cls:
+            notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
+                         f"expected {1e6 * expected:.0f} µs against {1e6 * t_cls:.0f} µs")
+        elif best is None or expected < best[1]:
+            best = (name, expected, share)
+    return best, notes
+
+
+@functools.lru_cache(maxsize=1)
+def _networks():
+    from .shipped import available_pretrained
+
+    return tuple(available_pretrained())
+
+
+def _choose(tol, values, t, kind):
+    """The network to try first, or None, with the reason in words. ``values()`` gives
+    the sensor values; the costs are weighed first, as they need no evaluation of V."""
+    from ..potentials import domain_violations
+
+    best, notes = _ranked(tol, kind, tuple(id(_model(n).calibration) for n in _networks()))
+    if best is None:
+        return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
+    if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
+        return None, "times outside [0, 2], where the networks were trained"
+    outside = domain_violations(values())
+    if outside:
+        return None, "outside the networks' domain: " + outside[0]
+    return best[0], (f"{best[0]} expected cheapest: its estimate met tol on "
+                     f"{best[2]:.0%} of its calibration set")
+
+
+def solve(potential, t, *, tol=None, method="auto", dV=None):
+    """The trajectory at exactly the times ``t``, by the cheapest method expected to meet
+    ``tol``.
+
+    Args:
+        potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`, a text
+            expression in q, a callable V(q) (with ``dV``), an object with ``V`` and
+            ``dV``, a :class:`~nh_operators.BoundedPotential`, or the 100 sensor values.
+        t: query times, shape (M,), ≥ 0 (≤ 2 for a network).
+        tol: target L_tot (> 0); ``None``: no target (``auto`` then solves classically
+            at :data:`DEFAULT_TOL`).
+        method: ``"auto"`` (see the module docstring), ``"classical"`` (RK4), an
+            integrator of :data:`~nh_operators.METHODS`, a shipped model of
+            :func:`~nh_operators.available_pretrained`, or the object
+            :func:`~nh_operators.pretrained` returns for one (its shipped weights and
+            calibration are used).
+        dV: derivative of a callable ``potential``.
+
+    Returns:
+        :class:`Solution`.
+
+    Raises:
+        ValueError: a bad potential, times, tolerance or method name, or times outside
+            [0, 2] for a network.
+
+    Warns:
+        UserWarning: a forced network whose estimate exceeds ``tol``.
+        OutOfDomainWarning: a forced network on an input outside its domain.
+
+    Example:
+        >>> sol = solve("sho", [0.5, 1.0], tol=1e-6)
+        >>> sol.kind, bool(sol.error_estimate <= 1e-6), round(float(sol.q[1]), 4)
+        ('classical', True, 0.8268)
+    """
+    from .._backend import single_threaded
+
+    start = time.perf_counter()
+    with single_threaded():  # one potential: threads only wait for time slices
+        return _solve(potential, t, tol, method, dV, start)
+
+
+def _method_name(method):
+    """A method name, or the shipped name of an object from :func:`pretrained`."""
+    if isinstance(method, str):
+        return method
+    shipped = getattr(method, "shipped", None)
+    if isinstance(shipped, str):
+        return shipped
+    raise ValueError(f"solve cannot use {method!r} as its method: its error estimate needs "
+                     "a calibrated network, so give a shipped model's name or "
+                     "nh.pretrained(NAME); call your own network directly (method(V, t) or "
+                     "nh.predict(net, V, t))")
+
+
+def _solve(potential, t, tol, method, dV, start):
+    method = _method_name(method)
+    if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be a positive number or None, got {tol!r}")
+    networks = _networks()
+    classical = {"classical": "rk4", **{m: m for m in ORDERS}}
+    if method != "auto" and method not in classical and method not in networks:
+        raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
+                         f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
+    pot, information = as_potential(potential, dV)
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
+        raise ValueError("t must be a non-empty array of finite times ≥ 0")
+    tried = []
+
+    if method in networks:
+        return _forced_network(method, pot, information, t, tol, start)
+    if method == "auto" and tol is not None:
+        name, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
+                               _input_kind(pot, information))
+        if name is not None:
+            t0 = time.perf_counter()
+            q, p, estimate = neural_solve(name, pot, information, t)
+            accepted = estimate <= tol
+            tried.append({"method": name, "error_estimate": estimate, "accepted": accepted,
+                          "seconds": time.perf_counter() - t0})
+            if accepted:
+                return Solution(q, p, name, "neural", estimate, time.perf_counter() - start,
+                                tol, reason, tried)
+            reason = f"{name}'s estimate {estimate:.2g} > tol {tol:g}; classical instead"
+    elif method == "auto":
+        reason = f"no tol: the classical solver at {DEFAULT_TOL:g}"
+    else:
+        reason = "forced"
+    integrator = classical.get(method, "rk4")
+    t0 = time.perf_counter()
+    sol = adaptive_solve(pot, information, t, DEFAULT_TOL if tol is None else tol, integrator)
+    tried.append({"method": integrator, "error_estimate": sol.error_estimate,
+                  "accepted": True, "seconds": time.perf_counter() - t0,
+                  "substeps": sol.substeps})
+    return Solution(sol.q, sol.p, integrator, "classical", sol.error_estimate,
+                    time.perf_counter() - start, tol, reason, tried)
+
+
+def _forced_network(name, pot, information, t, tol, start):
+    from ..potentials import OutOfDomainWarning, domain_violations
+
+    if t.max() > TIMES[-1] + 1e-12:
+        raise ValueError(f"{name} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
+    for message in domain_violations(_sensor_values(pot, information)):
+        warnings.warn(f"{name}: {message}", OutOfDomainWarning, stacklevel=4)
+    q, p, estimate = neural_solve(name, pot, information, t)
+    if tol is not None and estimate > tol:
+        warnings.warn(f"{name}'s error estimate {estimate:.2g} exceeds tol {tol:g}; use "
+                      "method='auto' to fall back to the classical solver", UserWarning,
+                      stacklevel=4)
+    seconds = time.perf_counter() - start
+    return Solution(q, p, name, "neural", estimate, seconds, tol, "forced",
+                    [{"method": name, "error_estimate": estimate, "accepted": True,
+                      "seconds": seconds}])

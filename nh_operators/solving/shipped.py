@@ -1,0 +1,122 @@
+"""Trained weights shipped inside the package, loaded offline: ``nh.pretrained("deeponet")``.
+
+Each model lives in ``nh_operators/solving/weights/NAME/``:
+
+* ``checkpoint.pt`` — the network's weights, its config and the training dataset's
+  checksum (a run's checkpoint without the optimiser, scheduler and RNG states, so
+  :func:`~nh_operators.load_model` reads it, but ``train --resume`` does not);
+* ``config.json`` and ``history.csv`` — as in the run directory it came from;
+* ``metrics.json`` — its ``report.json`` entry (test set, physical potentials, timings,
+  device) and the commands that regenerate weights and metrics.
+
+:func:`export_pretrained` writes such a folder from a run directory
+(``nh-operators export``).
+"""
+
+import io
+import json
+import shutil
+from pathlib import Path
+
+import torch
+
+from ..training import CHECKPOINT, load_checkpoint, write_atomic
+from ..training.checkpoint import CONFIG, HISTORY
+
+__all__ = ["WEIGHTS", "available_pretrained", "pretrained", "export_pretrained"]
+
+#: Folder of the shipped weights.
+WEIGHTS = Path(__file__).parent / "weights"
+METRICS = "metrics.json"
+_SLIM = ("format", "config", "model", "epoch", "data_checksum", "version")
+
+
+def available_pretrained():
+    """Names of the shipped models, sorted.
+
+    Example:
+        >>> "deeponet" in available_pretrained()
+        True
+    """
+    if not WEIGHTS.is_dir():
+        return []
+    return sorted(p.name for p in WEIGHTS.iterdir() if (p / CHECKPOINT).is_file())
+
+
+def pretrained(name, *, device="cpu", batch_size=1000):
+    """A shipped model as a :class:`~nh_operators.NeuralMethod`, loaded offline.
+
+    Args:
+        name: one of :func:`available_pretrained`.
+        device: ``"cpu"`` or a CUDA device.
+        batch_size: potentials per forward pass.
+
+    Returns:
+        NeuralMethod with ``config`` (training config), ``metrics`` (its evaluation
+        and the commands that reproduce it) and ``shipped`` (the name). Call it as
+        ``method(V, t)``, or pass it to :func:`~nh_operators.predict` or as
+        :func:`~nh_operators.solve`'s ``method``; the network is ``method.net``.
+
+    Raises:
+        ValueError: for an unknown name (listing the available ones).
+
+    Example:
+        >>> import nh_operators as nh
+        >>> model = pretrained("deeponet")
+        >>> q, p = model(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None], nh.TIMES)
+        >>> q.shape
+        (1, 100)
+    """
+    from ..evaluation import NeuralMethod
+
+    names = available_pretrained()
+    if name not in names:
+        raise ValueError(f"no pretrained model {name!r}; available: {names or 'none'}")
+    folder = WEIGHTS / name
+    method = NeuralMethod.from_run(folder, device=device, name=name, batch_size=batch_size)
+    metrics = folder / METRICS
+    method.metrics = json.loads(metrics.read_text()) if metrics.is_file() else {}
+    method.shipped = name  # solve(..., method=this) uses the shipped calibration of name
+    return method
+
+
+def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=()):
+    """Write a shippable model folder from a run directory.
+
+    Args:
+        run_dir: a run written by ``nh-operators train``.
+        out_dir: destination folder (e.g. ``nh_operators/solving/weights/NAME``); created or
+            overwritten file by file, atomically.
+        report: optional ``report.json`` of ``nh-operators evaluate`` that includes
+            the run; its entry for the model becomes ``metrics.json``.
+        name: the model's key in the report (default: the run's model name).
+        commands: the command lines that regenerate the weights and the metrics.
+
+    Returns:
+        Path of the folder.
+
+    Raises:
+        FileNotFoundError: if the run has no checkpoint.
+        ValueError: if the report has no entry for the model.
+    """
+    state = load_checkpoint(run_dir)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    buf = io.BytesIO()
+    torch.save({k: state[k] for k in _SLIM if k in state}, buf)
+    write_atomic(out / CHECKPOINT, buf.getvalue())
+    for fname in (CONFIG, HISTORY):
+        src = Path(run_dir) / fname
+        if src.is_file():
+            shutil.copyfile(src, out / (fname + ".tmp"))
+            (out / (fname + ".tmp")).replace(out / fname)
+    metrics = {"model": state["config"]["model"], "epochs": state["epoch"],
+               "data_checksum": state.get("data_checksum"), "commands": list(commands)}
+    if report is not None:
+        entry = json.loads(Path(report).read_text())["methods"].get(name or metrics["model"])
+        if entry is None:
+            raise ValueError(f"{report} has no entry for {name or metrics['model']!r}")
+        entry = {k: v for k, v in entry.items() if k not in ("run_dir", "config")}
+        metrics["evaluation"] = entry
+    write_atomic(out / METRICS, (json.dumps(metrics, indent=2) + "\n").encode())
+    return out

@@ -1,0 +1,105 @@
+"""What defines a training run: :class:`TrainConfig`, its validation, and the device."""
+
+import dataclasses
+
+import torch
+
+from ..models import model_config, training_defaults
+from .schedulers import ExpHyperbolicLR, HyperbolicLR
+
+__all__ = ["TrainConfig", "TrainingDiverged", "resolve_device"]
+
+#: Learning-rate schedules by name (``TrainConfig.scheduler``); ``None``: a constant lr.
+SCHEDULERS = {"exphyperbolic": ExpHyperbolicLR, "hyperbolic": HyperbolicLR,
+              "constant": None}
+
+
+class TrainingDiverged(RuntimeError):
+    """The training loss became non-finite; the last good checkpoint is kept."""
+
+
+@dataclasses.dataclass
+class TrainConfig:
+    """Everything that defines a training run (saved in its checkpoint and config.json).
+
+    Args:
+        model: a key of :data:`nh_operators.MODELS`.
+        preset: architecture preset, "paper" or "cpu".
+        arch: constructor arguments replacing the preset's.
+        epochs: number of epochs (also the schedule's ``max_iter``).
+        seed: seed of the weights, the batch order and the VaRONet noise.
+        batch_size: potentials per iteration (paper: 100).
+        lr, upper_bound, infimum_lr, beta: schedule and KL weight; ``None`` takes the
+            paper's tuned value for the model (see ``training_defaults``).
+        scheduler: "exphyperbolic" (paper), "hyperbolic" or "constant".
+        weight_decay: AdamW weight decay (default 0.01, PyTorch's).
+        betas: AdamW betas (paper: (0.85, 0.98)).
+        dtype: "float32" (default) or "float64".
+        device: "auto" (CUDA when available), "cpu", "cuda", "cuda:1", ...
+        amp: float16 autocast through DeepXDE's mixed mode; CUDA only.
+        train_fraction: training part of the dataset's 80/20 split.
+    """
+
+    model: str
+    preset: str = "cpu"
+    arch: dict = dataclasses.field(default_factory=dict)
+    epochs: int = 10
+    seed: int = 0
+    batch_size: int = 100
+    lr: float = None
+    upper_bound: float = None
+    infimum_lr: float = None
+    beta: float = None
+    scheduler: str = "exphyperbolic"
+    weight_decay: float = 0.01
+    betas: tuple = (0.85, 0.98)
+    dtype: str = "float32"
+    device: str = "auto"
+    amp: bool = False
+    train_fraction: float = 0.8
+
+    def resolved(self):
+        """A plain dict with every default filled in, validated.
+
+        Raises:
+            ValueError: naming the first bad value.
+        """
+        cfg = dataclasses.asdict(self)
+        cfg["arch"] = model_config(self.model, self.preset, **self.arch)
+        defaults = training_defaults(self.model)
+        for key in ("lr", "upper_bound", "infimum_lr"):
+            if cfg[key] is None:
+                cfg[key] = defaults[key]
+        if cfg["beta"] is None:
+            cfg["beta"] = defaults.get("beta", 0.0)
+        cfg["betas"] = list(cfg["betas"])
+        if int(cfg["epochs"]) != cfg["epochs"] or cfg["epochs"] < 1:
+            raise ValueError(f"epochs must be a positive integer, got {cfg['epochs']}")
+        if int(cfg["batch_size"]) != cfg["batch_size"] or cfg["batch_size"] < 1:
+            raise ValueError(f"batch_size must be a positive integer, got "
+                             f"{cfg['batch_size']}")
+        if cfg["scheduler"] not in SCHEDULERS:
+            raise ValueError(f"unknown scheduler {cfg['scheduler']!r}; choose from "
+                             f"{sorted(SCHEDULERS)}")
+        if cfg["scheduler"] != "constant" and cfg["upper_bound"] < cfg["epochs"]:
+            raise ValueError(f"upper_bound ({cfg['upper_bound']}) must be at least the "
+                             f"number of epochs ({cfg['epochs']})")
+        if cfg["dtype"] not in ("float32", "float64"):
+            raise ValueError(f"dtype must be 'float32' or 'float64', got {cfg['dtype']!r}")
+        if not cfg["lr"] > 0:
+            raise ValueError(f"lr must be positive, got {cfg['lr']}")
+        return cfg
+
+
+def resolve_device(device="auto"):
+    """``torch.device`` for "auto" (CUDA when available, else CPU) or a device name.
+
+    Raises:
+        ValueError: if CUDA is asked for and not available.
+    """
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    dev = torch.device(device)
+    if dev.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device {device!r} asked for, but CUDA is not available")
+    return dev

@@ -1,0 +1,90 @@
+import json
+
+import numpy as np
+import pytest
+
+import nh_operators as nh
+from nh_operators.cli import main
+from nh_operators.solving import (
+    WEIGHTS,
+    available_pretrained,
+    export_pretrained,
+    pretrained,
+)
+from nh_operators.training import load_checkpoint
+
+
+@pytest.mark.parametrize("name", available_pretrained())
+def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
+    model = pretrained(name)
+    assert model.name == name and model.metrics["model"] == name
+    shipped = load_checkpoint(WEIGHTS / name)
+    assert model.metrics["data_checksum"] == shipped["data_checksum"]
+    assert shipped["data_checksum"].startswith("sha256:") and "optimizer" not in shipped
+    commands = model.metrics["commands"]
+    assert any(c.startswith(f"nh-operators train --model {name}") for c in commands)
+    assert any(c.startswith("nh-operators evaluate") for c in commands)
+    V = nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None]
+    q, p = model(V, nh.TIMES)
+    q_ref, p_ref = nh.PHYSICAL_POTENTIALS["sho"].exact(nh.TIMES)
+    loss = 0.5 * (np.mean((q[0] - q_ref) ** 2) + np.mean((p[0] - p_ref) ** 2))
+    # the shipped metrics say what this model scores on the SHO: check it reproduces
+    assert loss == pytest.approx(model.metrics["evaluation"]["physical"]["sho"], rel=1e-4)
+
+
+@pytest.mark.parametrize("name", available_pretrained())
+def test_shipped_model_is_calibrated_for_solve(name):
+    cal = json.loads((WEIGHTS / name / "calibration.json").read_text())
+    assert cal["n"] >= 1000 and 0 < cal["factor"] < 100 and cal["quantile"] == 0.995
+    # calibrated on potentials from neither the training set nor the test set
+    assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
+    assert cal["estimate_quantiles"] == sorted(cal["estimate_quantiles"])
+    assert len(cal["classical_seconds"]) == len(cal["classical_tols"])
+
+
+def test_calibrate_pretrained_without_writing(tmp_path):
+    from nh_operators.data import generate_dataset
+    from nh_operators.solving import calibrate_pretrained
+
+    path = WEIGHTS / "deeponet" / "calibration.json"
+    before = path.read_bytes()
+    cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
+                               n_timing=2, n_ood=12, write=False)
+    assert path.read_bytes() == before and cal["n"] == 30
+    # the factor covers both the in-distribution and the out-of-distribution inputs
+    assert 0 < cal["n_ood"] <= 12
+    assert cal["factor"] == max(cal["factor_in_distribution"], cal["factor_ood"])
+    assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
+
+
+def test_shipped_weights_stay_small():
+    size = sum(f.stat().st_size for f in WEIGHTS.rglob("*") if f.is_file())
+    assert size < 25e6
+
+
+def test_unknown_name_lists_the_available():
+    with pytest.raises(ValueError, match="no pretrained model 'nope'; available: .*deeponet"):
+        pretrained("nope")
+
+
+def test_export_round_trip_through_the_cli(tmp_path, capsys):
+    data, run, out = tmp_path / "d.h5", tmp_path / "run", tmp_path / "weights" / "tiny"
+    assert main(["generate", "--size", "20", "--seed", "5", "--out", str(data), "--quiet"]) == 0
+    assert main(["train", "--model", "deeponet", "--data", str(data), "--epochs", "1",
+                 "--out", str(run), "--batch-size", "8", "--quiet", "--arch", "hidden_size=8",
+                 "--arch", "branches=2"]) == 0
+    assert main(["export", "--run", str(run), "--out", str(out), "--command", "make it"]) == 0
+    assert "exported" in capsys.readouterr().out
+    assert {f.name for f in out.iterdir()} == {"checkpoint.pt", "config.json", "history.csv",
+                                               "metrics.json"}
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["commands"] == ["make it"] and metrics["epochs"] == 1
+    assert (out / "checkpoint.pt").stat().st_mode & 0o044 == 0o044  # readable by others
+    net_run, _ = nh.load_model(run)
+    net_out, _ = nh.load_model(out)
+    V = np.tile(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS), (2, 1))
+    np.testing.assert_array_equal(nh.predict(net_run, V, nh.TIMES)[0],
+                                  nh.predict(net_out, V, nh.TIMES)[0])
+    with pytest.raises(ValueError, match="has no entry for 'deeponet'"):
+        (tmp_path / "r.json").write_text(json.dumps({"methods": {}}))
+        export_pretrained(run, out, report=tmp_path / "r.json")

@@ -1,0 +1,123 @@
+"""solve(): the method chosen, the contract on a few inputs, forced methods, errors."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import nh_operators as nh
+from nh_operators.evaluation import loss_per_sample
+from nh_operators.models import predict
+from nh_operators.solvers import solve_classical
+from nh_operators.solving import auto_solve as solve_module
+
+T = np.array([1.7, 0.05, 0.6, 2.0, 1.1])  # unsorted on purpose
+SHO = nh.PHYSICAL_POTENTIALS["sho"]
+
+
+def true_loss(sol, name="sho", t=T):
+    q, p = nh.PHYSICAL_POTENTIALS[name].exact(t)
+    return float(loss_per_sample(sol.q, sol.p, q, p)["L_tot"])
+
+
+@pytest.mark.parametrize("tol", [1e-4, 1e-6, 1e-8])
+def test_auto_meets_the_tolerance_at_exactly_the_times_asked(tol):
+    sol = nh.solve("sho", T, tol=tol)
+    assert sol.q.shape == (5,) and sol.tol == tol and sol.seconds > 0
+    assert sol.error_estimate <= tol and true_loss(sol) <= tol
+    # the shipped networks are ~1e-2: no network is expected to meet these tolerances
+    assert sol.kind == "classical" and "no network expected to be cheaper" in sol.reason
+
+
+def test_auto_without_tol_is_the_classical_solve_at_the_default():
+    sol = nh.solve("mff", T)
+    ref = solve_classical("mff", T, tol=nh.DEFAULT_TOL)
+    np.testing.assert_array_equal(sol.q, ref.q)
+    assert sol.method == "rk4" and sol.tried[0]["substeps"] == ref.substeps
+    assert true_loss(sol, "mff") <= nh.DEFAULT_TOL
+
+
+def test_forced_integrator_and_callable_input():
+    sol = nh.solve(SHO.V, T, tol=1e-9, method="yoshida4", dV=SHO.dV)
+    assert sol.method == "yoshida4" and sol.reason == "forced" and true_loss(sol) <= 1e-9
+
+
+def test_forced_network_interpolates_its_grid_prediction():
+    sol = nh.solve("sho", nh.TIMES[::7], method="deeponet")
+    net = nh.pretrained("deeponet").net
+    q, p = predict(net, SHO.V(nh.SENSORS), nh.TIMES)
+    np.testing.assert_allclose(sol.q, q[::7], atol=1e-12)
+    np.testing.assert_allclose(sol.p, p[::7], atol=1e-12)
+    assert sol.kind == "neural" and np.isfinite(sol.error_estimate)
+    # DeepONet is ~1e-2 on the SHO; its calibrated estimate is above the true error
+    assert true_loss(sol, t=nh.TIMES[::7]) <= sol.error_estimate
+
+
+def test_forced_network_warns_when_its_estimate_exceeds_tol_or_the_input_is_outside():
+    with pytest.warns(UserWarning, match="exceeds tol"):
+        nh.solve("sho", T, tol=1e-9, method="deeponet")
+    deep = 2 - 20 * nh.SENSORS * (1 - nh.SENSORS)  # min V = -3, below the generator's -2
+    with pytest.warns(nh.OutOfDomainWarning, match="below -2"):
+        nh.solve(deep, T, method="deeponet")
+    with pytest.raises(ValueError, match=r"t ∈ \[0, 2\]"):
+        nh.solve("sho", [0.5, 2.5], method="deeponet")
+
+
+def fake_calibration(factor, neural_seconds, estimates):
+    return {"factor": factor, "probabilities": [0.0, 0.5, 1.0],
+            "estimate_quantiles": estimates, "neural_seconds": neural_seconds,
+            "classical_tols": [1e-1, 1e-12], "classical_seconds": [1.0, 1.0]}
+
+
+def test_auto_uses_a_network_expected_to_be_cheaper_and_falls_back_when_its_estimate_fails(
+        monkeypatch):
+    model = solve_module._model("deeponet")
+    monkeypatch.setattr(model, "calibration", fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7]))
+    _, _, estimate = solve_module.neural_solve("deeponet", SHO, "exact V", T)
+    loose = nh.solve("sho", T, tol=10 * estimate)
+    assert loose.kind == "neural" and loose.method == "deeponet"
+    assert loose.error_estimate == pytest.approx(estimate)
+    assert "expected cheapest" in loose.reason
+    tight = nh.solve("sho", T, tol=estimate / 10)
+    assert tight.kind == "classical" and [a["accepted"] for a in tight.tried] == [False, True]
+    assert "estimate" in tight.reason and true_loss(tight) <= estimate / 10
+    # outside the domain (or beyond t = 2) auto does not try the network
+    far = nh.solve("sho", [0.5, 3.0], tol=10 * estimate)
+    assert far.kind == "classical" and "outside [0, 2]" in far.reason
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="unknown method 'rk5'"):
+        nh.solve("sho", T, method="rk5")
+    with pytest.raises(ValueError, match="tol must be a positive number"):
+        nh.solve("sho", T, tol=-1.0)
+    with pytest.raises(ValueError, match="non-empty array of finite times"):
+        nh.solve("sho", [], tol=1e-6)
+    with pytest.raises(ValueError, match="V\\(0\\)"):
+        nh.solve("3 + q", T)
+
+
+def test_solve_restores_thread_counts():
+    import numba
+    import torch
+
+    before = torch.get_num_threads(), numba.get_num_threads()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        nh.solve("sho", T, method="deeponet")
+    nh.solve("sho", T, tol=1e-6)
+    assert (torch.get_num_threads(), numba.get_num_threads()) == before
+
+
+def test_the_classical_cost_weighed_is_the_one_of_the_input_kind(monkeypatch, pots):
+    model = solve_module._model("deeponet")
+    cal = fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7])
+    cal["classical_seconds"] = [1e-6, 1e-6]          # B-spline potentials: cheap
+    cal["classical_seconds_formula"] = [1.0, 1.0]    # formulas: expensive
+    monkeypatch.setattr(model, "calibration", cal)
+    _, _, estimate = solve_module.neural_solve("deeponet", SHO, "exact V", T)
+    assert nh.solve("sho", T, tol=10 * estimate).kind == "neural"
+    bspline = nh.solve(pots[0], T, tol=1.0)
+    assert bspline.kind == "classical" and "expected" in bspline.reason
+    # sensor values fall back to the B-spline timing when the calibration has none
+    assert nh.solve(pots.V(nh.SENSORS)[0], T, tol=1.0).kind == "classical"
