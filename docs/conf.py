@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
-sys.path.insert(0, str(DOCS / "_ext"))  # gallery_scrapers
+sys.path.insert(0, str(DOCS / "_ext"))  # gallery_scrapers, architecture_page
 sys.path.insert(0, str(DOCS.parent))  # the package of this checkout
 
 # The tutorials run headless; nh_operators selects DeepXDE's PyTorch backend itself.
@@ -29,6 +29,7 @@ extensions = [
     "sphinx.ext.viewcode",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
+    "architecture_page",  # docs/architecture.rst: the wings drawn from the imports
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
