@@ -134,6 +134,18 @@ class OperatorData(dde.data.TripleCartesianProd):
         Returns:
             float: mean over samples of (L_q + L_p) / 2 (= the MSE over all entries).
         """
+        total, count = self.validation_sums(net, batch_size)
+        return total / count
+
+    def validation_sums(self, net, batch_size=100):
+        """Sum of the per-sample L_tot over this object's validation rows, and their number.
+
+        A distributed run adds these over the ranks (each holds a share of the
+        validation set) before dividing; :meth:`validation_loss` divides at once.
+
+        Returns:
+            (float, int): the sum and the number of samples.
+        """
         V, t = self.test_x
         total = 0.0
         for start, out in batched_forward(net, V, t, batch_size):
@@ -141,4 +153,4 @@ class OperatorData(dde.data.TripleCartesianProd):
                                 dtype=out.dtype)
             err = (out - y) ** 2
             total += float(err.mean(dim=tuple(range(1, err.ndim))).sum())
-        return total / len(V)
+        return total, len(V)

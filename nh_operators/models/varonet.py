@@ -30,6 +30,13 @@ class VaRONet(OperatorNet):
         n_sensors: length m of V (default 100).
         n_outputs: decoders, 2 for (q, p) (1 gives shape (B, M)).
 
+    Attributes:
+        noise: ``None`` (ε = ``torch.randn_like(μ)``) or a callable ``noise(mu)``
+            returning ε of μ's shape; a distributed run sets it to
+            :meth:`~nh_operators.data.ShardedOperatorData.batch_noise`, which draws the
+            global batch's noise and slices this rank's rows, so N processes draw what
+            one would.
+
     Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs). The decoders
     read the times as a sequence, so ask for them in increasing order.
 
@@ -60,13 +67,18 @@ class VaRONet(OperatorNet):
             for _ in range(n_outputs))
         self.heads = nn.ModuleList(nn.Linear(hidden_size, 1) for _ in range(n_outputs))
         self.kl = None
+        self.noise = None
 
     def _forward(self, V, t):
         _, (h, _) = self.encoder(V[..., None])
         h = h[-1]
         mu, logvar = self.mu(h), self.logvar(h)
         self.kl = torch.mean(-0.5 * torch.sum(1 + logvar - mu**2 - logvar.exp(), dim=-1))
-        z = mu + torch.exp(0.5 * logvar) * torch.randn_like(mu) if self.training else mu
+        if self.training:
+            eps = torch.randn_like(mu) if self.noise is None else self.noise(mu)
+            z = mu + torch.exp(0.5 * logvar) * eps
+        else:
+            z = mu
         times = t[None].expand(V.shape[0], -1, -1)
         outs = []
         for init, decoder, head in zip(self.init_states, self.decoders, self.heads):
