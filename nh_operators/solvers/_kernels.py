@@ -27,8 +27,8 @@ def _hermite(theta, h, y0, d0, y1, d1):
 
 
 @numba.njit(**_JIT_FN_ARG)
-def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
-    """One trajectory from rest at q = 0 with ``nsteps`` steps of size ``h``.
+def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
+    """One trajectory from (q_start, p_start) with ``nsteps`` steps of size ``h``.
 
     ``tq`` holds sorted query times in [0, nsteps h]; results are cubic Hermite
     interpolants with the exact derivatives (dq/dt = p, dp/dt = force) at the ends of
@@ -37,13 +37,13 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
     ``h * weights[i]``.
     """
     m = tq.shape[0]
-    q = 0.0
-    p = 0.0
+    q = q_start
+    p = p_start
     f = force(par, q)
     k = 0
     while k < m and tq[k] <= 0.0:
-        oq[k] = 0.0
-        op[k] = 0.0
+        oq[k] = q_start
+        op[k] = p_start
         k += 1
     for n in range(nsteps):
         q0 = q
@@ -77,9 +77,19 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op):
 
 
 @numba.njit(parallel=True, **_JIT_FN_ARG)
-def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op):
+def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
     for i in numba.prange(pars.shape[0]):
-        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[i], op[i])
+        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[i], op[i],
+                          q0s[i], p0s[i])
+
+
+@numba.njit(parallel=True, **_JIT_FN_ARG)
+def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Row ``rows[k]`` of every per-row array, with its own sorted times and step grid."""
+    for k in numba.prange(rows.shape[0]):
+        i = rows[k]
+        _trajectory_fixed(force, pars[i], tq[i], hs[i], nsteps[i], rk4, weights, oq[k],
+                          op[k], q0s[i], p0s[i])
 
 
 # ----------------------------------------- adaptive Dormand–Prince 5(4) in λ (truth)

@@ -1,4 +1,4 @@
-"""Fixed-step solvers of q' = p, p' = -V'(q) from rest at q = 0, in float64.
+"""Fixed-step solvers of q' = p, p' = -V'(q) from (q0, p0) (default: rest at q = 0), in float64.
 
 - :func:`integrate`: fixed-step RK4 and symplectic methods on a potential known exactly.
 - :func:`integrate_sensors`: the same methods on the information a neural operator has,
@@ -20,7 +20,7 @@ from .._constants import SENSORS, TIMES, V0
 from .._sensors import sensor_values
 from ..potentials import _spline_kernels
 from ..potentials.bounded import BoundedPotential, check_bounded
-from . import _kernels
+from . import _kernels, _orbit
 from .resolution import (
     check_energy,
     check_formula,
@@ -29,17 +29,30 @@ from .resolution import (
     spline_drift,
 )
 from .schemes import _check_times, _method, _step_grid
+from .states import check_states, state_arrays
 
 __all__ = ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"]
 
 
-def _run_fixed(force, params, t, method, substeps, interval):
+def _states(q0, p0, n, value, params, batched):
+    """Checked (q0s, p0s, energies) of n rows whose V is ``value(params[i], x)``."""
+    q0s, p0s = state_arrays(q0, p0, n)
+
+    def value_at(x):
+        out = np.empty(n)
+        _orbit.pairwise(value, params, np.ascontiguousarray(x), out)
+        return out
+
+    return q0s, p0s, check_states(q0s, p0s, value_at, batched)
+
+
+def _run_fixed(force, params, t, method, substeps, interval, q0s, p0s):
     rk4, weights = _method(method)
     order, ts, h, nsteps = _step_grid(t, substeps, interval)
     n = params.shape[0]
     oq = np.empty((n, ts.size))
     op = np.empty((n, ts.size))
-    _kernels.batch_fixed(force, params, ts, h, nsteps, rk4, weights, oq, op)
+    _kernels.batch_fixed(force, params, ts, h, nsteps, rk4, weights, oq, op, q0s, p0s)
     q = np.empty_like(oq)
     p = np.empty_like(op)
     q[:, order] = oq
@@ -48,9 +61,10 @@ def _run_fixed(force, params, t, method, substeps, interval):
 
 
 def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
-              check_resolution=True):
+              check_resolution=True, q0=0.0, p0=0.0):
     """Integrate Hamilton's equations with a fixed-step method on an exact potential.
 
+    The particle starts from (q0, p0) at t = 0 (default: at rest at q = 0).
     The step is ``interval / substeps``, adjusted down so that a whole number of steps
     ends at max(t). ``interval`` defaults to the spacing of t when t is an even grid
     starting at 0 (so every query lands on a step), else to the spacing of
@@ -68,12 +82,16 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
         interval: the output interval (see above).
         check_resolution: warn when the step is too coarse (a B-spline's curvature is
             probed at the sensors, a third of the cost of a one-substep solve).
+        q0, p0: starting state, scalars or (N,) for a batch; the energy
+            p0²/2 + V(q0) must be ≤ V0 and q0 in [0, 1].
 
     Returns:
         (q, p): float64 arrays of shape (M,) for one potential, (N, M) for a batch.
 
     Raises:
-        ValueError: for an unknown method, bad times or substeps.
+        ValueError: for an unknown method, bad times or substeps, a state that would
+            leave [0, 1], or more than :data:`~nh_operators.solvers.schemes.MAX_STEPS`
+            steps.
         TypeError: if the potential has no ``dV``.
 
     Warns:
@@ -90,20 +108,28 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
     """
     t = _check_times(t)
     if isinstance(potential, BoundedPotential):
-        q, p = _run_fixed(_spline_kernels.bspline_force, potential.params, t, method, substeps, interval)
+        q0s, p0s, _ = _states(q0, p0, potential.params.shape[0], _spline_kernels.bspline_value,
+                              potential.params, potential.batched)
+        q, p = _run_fixed(_spline_kernels.bspline_force, potential.params, t, method, substeps,
+                          interval, q0s, p0s)
         if check_resolution:
             curvature = np.abs(potential.d2V(SENSORS)).reshape(-1, SENSORS.size).max(axis=1)
             check_resolution_of(curvature, t, method, substeps, interval, potential.batched)
         return (q, p) if potential.batched else (q[0], p[0])
     if isinstance(potential, (list, tuple)):
+        q0s, p0s = state_arrays(q0, p0, len(potential))
         pairs = [integrate(pot, t, method, substeps, interval=interval,
-                           check_resolution=check_resolution) for pot in potential]
+                           check_resolution=check_resolution, q0=a, p0=b)
+                 for pot, a, b in zip(potential, q0s, p0s)]
         return np.stack([a for a, _ in pairs]), np.stack([b for _, b in pairs])
     if not hasattr(potential, "dV"):
         raise TypeError(
             "potential must be a BoundedPotential or have a vectorised dV(q) method; for "
             "values at the sensors use integrate_sensors"
         )
+    q0s, p0s = state_arrays(q0, p0, 1)
+    energy = check_states(q0s, p0s, lambda x: potential.V(x) if hasattr(potential, "V")
+                          else V0 - 0.5 * p0s**2)[0]
     if check_resolution:
         check_formula(potential, t, method, substeps, interval)
     rk4, weights = _method(method)
@@ -114,14 +140,15 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
     def force(_params, x):
         return -float(potential.dV(x))
 
-    _kernels._trajectory_fixed.py_func(force, None, ts, h, nsteps, rk4, weights, oq, op)
+    _kernels._trajectory_fixed.py_func(force, None, ts, h, nsteps, rk4, weights, oq, op,
+                                       q0s[0], p0s[0])
     q = np.empty_like(oq)
     p = np.empty_like(op)
     q[order] = oq
     p[order] = op
     if check_resolution and hasattr(potential, "V"):
         with np.errstate(all="ignore"):
-            drift = abs(0.5 * op[-1] ** 2 + float(potential.V(oq[-1])) - V0)
+            drift = abs(0.5 * op[-1] ** 2 + float(potential.V(oq[-1])) - energy)
         check_energy(np.array([drift]), t, method, substeps, "formula", False,
                       getattr(potential, "name", "V"))
     return q, p
@@ -158,7 +185,7 @@ def sensor_spline_params(V, interpolation="cubic"):
 
 
 def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic", *,
-                      interval=None, check_resolution=True):
+                      interval=None, check_resolution=True, q0=0.0, p0=0.0):
     """Integrate with the force from a spline of the sensor values: the honest baseline.
 
     A neural operator sees V only at the 100 :data:`SENSORS`; this solver uses the same
@@ -171,12 +198,16 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
         t, method, substeps, interval: as in :func:`integrate`.
         interpolation: ``"cubic"`` or ``"pchip"``.
         check_resolution: warn when the step is too coarse (negligible cost).
+        q0, p0: starting state, scalars or (N,); the energy p0²/2 + V(q0) on the
+            spline must be ≤ V0 and q0 in [0, 1].
 
     Returns:
         (q, p) of shape (M,) or (N, M).
 
     Raises:
-        ValueError: if V breaks the bounded conditions or has the wrong shape.
+        ValueError: if V breaks the bounded conditions or has the wrong shape, for a
+            state that would leave [0, 1], or more than
+            :data:`~nh_operators.solvers.schemes.MAX_STEPS` steps.
 
     Warns:
         ResolutionWarning: naming the rows where ``h·sqrt(max |V''|)`` of the spline
@@ -194,13 +225,16 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
     V = check_bounded(sensor_values(V))
     single = V.ndim == 1
     params = sensor_spline_params(np.atleast_2d(V), interpolation)
+    q0s, p0s, energy = _states(q0, p0, params.shape[0], _spline_kernels.grid_value, params,
+                               not single)
     if check_resolution:
         check_resolution_of(spline_curvature(params), t, method, substeps, interval, not single)
-    q, p = _run_fixed(_spline_kernels.grid_force, params, t, method, substeps, interval)
+    q, p = _run_fixed(_spline_kernels.grid_force, params, t, method, substeps, interval,
+                      q0s, p0s)
     if check_resolution:
         last = int(np.argmax(t))
-        check_energy(spline_drift(params, q[:, last], p[:, last]), t, method, substeps,
-                      interpolation, not single)
+        check_energy(spline_drift(params, q[:, last], p[:, last], energy), t, method,
+                      substeps, interpolation, not single)
     return (q[0], p[0]) if single else (q, p)
 
 

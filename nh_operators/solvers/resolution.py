@@ -50,13 +50,14 @@ def spline_curvature(params):
     return np.maximum(np.abs(start, out=start), end).max(axis=1) * c.shape[1] ** 2
 
 
-def spline_drift(params, q, p):
-    """``|p²/2 + V(q) - V0|`` on each row's spline, at one point (q, p) per row."""
+def spline_drift(params, q, p, energy=V0):
+    """``|p²/2 + V(q) - E|`` on each row's spline, at one point (q, p) per row (E: the
+    energy of each row's starting state, default V0)."""
     c = params.reshape(params.shape[0], -1, 4)
     x = np.nan_to_num(np.clip(q, 0.0, 1.0)) * c.shape[1]
     j = np.minimum(x.astype(np.int64), c.shape[1] - 1)
     a, s = c[np.arange(j.size), j].T, x - j
-    return np.abs(0.5 * p**2 + a[0] + s * (a[1] + s * (a[2] + s * a[3])) - V0)
+    return np.abs(0.5 * p**2 + a[0] + s * (a[1] + s * (a[2] + s * a[3])) - energy)
 
 
 def _rows(bad, batched, name):

@@ -8,7 +8,11 @@ import numpy as np
 
 from .._constants import TIMES
 
-__all__ = ["METHODS", "ORDERS"]
+__all__ = ["METHODS", "ORDERS", "MAX_STEPS"]
+
+#: A fixed-step solve refuses to take more steps than this (about a minute of one
+#: core): far horizons are for :func:`~nh_operators.solve`, which answers from one period.
+MAX_STEPS = 2e8
 
 
 def _triple_jump(weights, order):
@@ -38,7 +42,7 @@ def _check_times(t):
     if t.ndim != 1 or t.size == 0:
         raise ValueError(f"t must be a non-empty 1-D array of times, got shape {t.shape}")
     if not np.all(np.isfinite(t)) or np.any(t < 0):
-        raise ValueError("t must hold finite times ≥ 0 (the particle starts at rest at t = 0)")
+        raise ValueError("t must hold finite times ≥ 0 (the particle starts at t = 0)")
     return t
 
 
@@ -57,7 +61,12 @@ def _step_grid(t, substeps, interval):
     if not interval > 0:
         raise ValueError(f"interval must be positive, got {interval}")
     t_max = ts[-1]
-    nsteps = int(np.ceil(t_max * substeps / interval - 1e-9)) if t_max > 0 else 0
+    steps = t_max * substeps / interval - 1e-9
+    if steps > MAX_STEPS:
+        raise ValueError(f"t = {t_max:g} needs {steps:.3g} fixed steps at {substeps} "
+                         f"substep(s), more than {MAX_STEPS:g}; nh.solve answers any horizon "
+                         "from one period of the orbit")
+    nsteps = int(np.ceil(steps)) if t_max > 0 else 0
     h = t_max / nsteps if nsteps else 1.0
     return order, ts, h, nsteps
 

@@ -1,0 +1,131 @@
+"""The horizon contract of issue 14: any time at the cost of one period, to tolerance.
+
+For each tolerance (1e-4, 1e-6, 1e-8) and horizon (2 ... 1e6), ``nh.solve`` (classical,
+as ``auto`` is for these inputs) runs on the five physical potentials and on test-set
+B-spline potentials, from (0, 0) and from random bounded states, at 20 times spread over
+[0, horizon] (the last one at the horizon). Truth: the exact solution for the SHO and
+MFF (any state); otherwise a Yoshida-8 solve at tol 1e-13 at the reduced time
+r = t mod T, with the solve's own period T (the periods themselves are checked against
+30-digit mpmath quadrature in tests/solvers/test_periodic.py, so for these rows the table
+checks the reduction and the integration, not T independently).
+
+Reported per (tol, horizon): the share of cases whose true L_tot ≤ tol, the worst ratio
+true / tol, and the median, 90th percentile and maximum over the cases of (time at this
+horizon) / (time of the same solve on [0, 2]), measured in the same run (median of 3
+timings each).
+
+Run it with::
+
+    python benchmarks/horizon_contract.py [--size 20] [--horizons 2 100 1e4 1e6]
+"""
+
+import argparse
+import math
+import statistics
+import time
+
+import numpy as np
+
+import nh_operators as nh
+from nh_operators.evaluation import loss_per_sample
+from nh_operators.potentials import BoundedPotentialSpace
+
+
+def sho_exact(q0, p0, t):
+    A, phi = math.hypot(q0 - 0.5, p0 / 4), math.atan2(-p0 / 4, q0 - 0.5)
+    return 0.5 + A * np.cos(4 * t + phi), -4 * A * np.sin(4 * t + phi)
+
+
+def mff_exact(q0, p0, t):
+    """V = 4 |q - 1/2|: parabolas glued at q = 1/2; period sqrt(2E) (speed at the centre)."""
+    energy = 0.5 * p0**2 + 4 * abs(q0 - 0.5)
+    period = math.sqrt(2 * energy)
+    qs, ps = [], []
+    for tk in np.atleast_1d(t):
+        q, p, left = q0, p0, math.fmod(tk, period)
+        while True:
+            s = 1.0 if q > 0.5 or (q == 0.5 and p > 0) else -1.0
+            tau = (s * p + math.sqrt(p * p + 8 * abs(q - 0.5))) / 4
+            if left < tau:
+                q, p = q + p * left - 2 * s * left**2, p - 4 * s * left
+                break
+            q, p, left = 0.5, p - 4 * s * tau, left - tau
+        qs.append(q)
+        ps.append(p)
+    return np.array(qs), np.array(ps)
+
+
+def reference(pot, q0, p0, t, period):
+    """Truth at t: the high-accuracy solve at t mod T (T checked against DOP853 below)."""
+    r = t if not math.isfinite(period) else t - np.floor(t / period) * period
+    if isinstance(pot, str) and pot == "sho":
+        return sho_exact(q0, p0, t)
+    if pot is nh.PHYSICAL_POTENTIALS["mff"]:
+        return mff_exact(q0, p0, t)
+    sol = nh.solve(pot, r, tol=1e-13, method="yoshida8", q0=q0, p0=p0)
+    return sol.q, sol.p
+
+
+def timed(fn, repeats=3):
+    times, out = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), out
+
+
+def cases(size, rng):
+    pots = BoundedPotentialSpace.potentials(BoundedPotentialSpace(seed=42).random(size))
+    items = [(name, nh.PHYSICAL_POTENTIALS[name]) for name in nh.PHYSICAL_POTENTIALS]
+    items = [("sho", "sho")] + items[1:] + [(f"test[{i}]", pots[i]) for i in range(size)]
+    out = []
+    for label, pot in items:
+        out.append((label, pot, 0.0, 0.0))
+        V = pot if not isinstance(pot, str) else nh.PHYSICAL_POTENTIALS[pot]
+        q0 = float(rng.uniform(0.1, 0.9))
+        room = 2.0 - float(V.V(q0))
+        p0 = float(rng.choice([-1, 1]) * math.sqrt(2 * room * rng.uniform(0.05, 0.9)))
+        out.append((label, pot, q0, p0))
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--size", type=int, default=20, help="test-set potentials")
+    parser.add_argument("--horizons", type=float, nargs="+", default=[2, 100, 1e4, 1e6])
+    parser.add_argument("--tols", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8])
+    args = parser.parse_args()
+    rng = np.random.default_rng(14)
+    items = cases(args.size, rng)
+    nh.solve("sho", [3.0], tol=1e-6)  # compile
+    print(f"{len(items)} cases (5 physical + {args.size} test-set potentials, each from "
+          "(0, 0) and from a random bounded state), 20 times on [0, horizon]\n")
+    print(f"{'tol':>7} {'horizon':>8} {'met':>8} {'worst L/tol':>12} "
+          f"{'time / [0,2]: median':>21} {'p90':>6} {'max':>6}")
+    for tol in args.tols:
+        base = {}
+        for horizon in args.horizons:
+            met, worst, ratios = 0, 0.0, []
+            for k, (label, pot, q0, p0) in enumerate(items):
+                t = np.linspace(0, horizon, 20)
+                short = np.linspace(0, 2, 20)
+                def run(times, pot=pot, q0=q0, p0=p0):
+                    return nh.solve(pot, times, tol=tol, q0=q0, p0=p0)
+
+                if k not in base:
+                    base[k] = timed(lambda: run(short))[0]
+                seconds, sol = timed(lambda: run(t))
+                period = sol.tried[-1].get("period") or math.inf
+                q, p = reference(pot, q0, p0, t, period)
+                true = float(loss_per_sample(sol.q, sol.p, q, p)["L_tot"])
+                met += true <= tol
+                worst = max(worst, true / tol)
+                ratios.append(seconds / base[k])
+            print(f"{tol:7.0e} {horizon:8.0e} {met:>4}/{len(items):<3} {worst:12.3g} "
+                  f"{statistics.median(ratios):21.2f} {np.quantile(ratios, 0.9):6.2f} "
+                  f"{max(ratios):6.2f}")
+
+
+if __name__ == "__main__":
+    main()

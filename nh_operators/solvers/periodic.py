@@ -1,0 +1,209 @@
+"""Any horizon at the cost of one period: every bounded 1-D orbit is periodic.
+
+For a row whose latest time exceeds :data:`PERIODIC_FROM`, the period T of its orbit is
+found once (:mod:`._orbit`: turning points, then an adaptive quadrature of dq/|p| to
+about 1e-14 relative, with an error bound δT), and every time t = n T + r is answered by
+the solve at r ∈ [0, T). The time T itself is solved too: the trajectory must return to
+its starting state there, a check that catches a period gone wrong (a barrier narrower
+than the search grid of the turning points).
+
+**Phase error.** An error δT of the period shifts the answer at t by n δT, and the
+rounding of t in float64 adds its spacing ulp(t). To first order the state moves by
+(p, −V′) times that shift, so the phase adds mean((n δT + ulp(t))² (p² + V′²)) / 2 to
+L_tot, evaluated at the solution (:func:`phase_error`); it is part of the returned
+estimate, and the solve itself runs to the rest of the tolerance (set beforehand with
+S, a bound on p² + V′² along the orbit).
+
+**Refusals.** A time whose float64 spacing alone costs more than a quarter of the
+tolerance is beyond what float64 resolves (ValueError). A period that cannot be found
+(the orbit passes at zero speed over a barrier top, a separatrix, where T → ∞) or whose
+phase error exceeds a quarter of the tolerance raises :class:`PeriodError` when the
+latest time exceeds :data:`DIRECT_HORIZON`; up to there the orbit is integrated directly.
+"""
+
+import math
+
+import numpy as np
+
+from .._constants import TIMES
+from . import _orbit
+
+__all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError", "orbit_periods", "plan_horizon"]
+
+#: Rows whose latest time exceeds this are answered from one period.
+PERIODIC_FROM = 2.0
+#: Without a usable period, rows up to this time are integrated directly.
+DIRECT_HORIZON = 50.0
+
+#: A period whose error bound exceeds this share of T is not used.
+_LOOSE = 1e-8
+
+_FAILURES = {_orbit.NOT_CONVERGED: "its period quadrature did not converge",
+             _orbit.BARRIER: "it turns around where V' (almost) vanishes, or V reaches the "
+                             "energy between its turning points"}
+
+
+class PeriodError(ValueError):
+    """The period of an orbit cannot be found to the accuracy the tolerance needs."""
+
+
+def orbit_periods(src, rows, q0s, p0s):
+    """Period data of rows ``rows`` of a row source (:mod:`.rows`).
+
+    Args:
+        src: a row source (force, value, params, compiled).
+        rows: (K,) int64 indices of the rows.
+        q0s, p0s: (N,) starting states of all rows.
+
+    Returns:
+        (out, status): out (K, 7) holds T, δT, a, b, S, E and the q where the quadrature
+        peaked; status (K,) the codes of :mod:`._orbit` (0: found).
+
+    Example:
+        >>> from nh_operators.solvers.rows import row_source
+        >>> src = row_source("sho", "exact V")
+        >>> out, status = orbit_periods(src, np.array([0]), np.array([0.0]), np.array([0.0]))
+        >>> int(status[0]), round(float(out[0, 0]), 12)  # T = π/2
+        (0, 1.570796326795)
+    """
+    out = np.empty((rows.size, 7))
+    status = np.empty(rows.size, dtype=np.int64)
+    if src.compiled:
+        _orbit.batch_orbit_period(src.value, src.force, src.params, rows, q0s, p0s, out,
+                                  status)
+    else:
+        for k, i in enumerate(rows):
+            status[k] = _orbit.orbit_period(src.value, src.force, src.params[0], q0s[i],
+                                            p0s[i], out[k])
+    return out, status
+
+
+def _where(batched, i):
+    return f"row {i}: " if batched else ""
+
+
+def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
+    """Working times of each row: reduced into one period where the horizon needs it.
+
+    Args:
+        src: a row source; ts: (N, M) sorted asked times; q0s, p0s: (N,); tols: (N,)
+            tolerances on L_tot; batched: name rows in messages.
+
+    Returns:
+        dict with ``work`` (N, M or M + 1) sorted working times, ``order`` (N, M or M+1)
+        the argsort of each working row, ``periodic`` (N,) bool, ``period`` (N,) T (nan
+        when unused), ``phase`` (N,) the phase bound on L_tot.
+
+    Raises:
+        ValueError: a time beyond what float64 resolves.
+        PeriodError: no usable period for a row whose horizon exceeds DIRECT_HORIZON.
+    """
+    n, m = ts.shape
+    period = np.full(n, np.nan)
+    phase = np.zeros(n)
+    periodic = np.zeros(n, dtype=bool)
+    need = np.flatnonzero(ts[:, -1] > PERIODIC_FROM)
+    if need.size == 0:
+        return {"work": ts, "order": None, "periodic": periodic, "period": period,
+                "phase": phase}
+    out, status = orbit_periods(src, need, q0s, p0s)
+    work = np.concatenate([ts, ts[:, -1:]], axis=1)
+    shifts = np.zeros((n, m))
+    for k, i in enumerate(need):
+        T, dT, S, energy = out[k, 0], out[k, 1], out[k, 4], out[k, 5]
+        t = ts[i]
+        ulp = np.spacing(t)
+        with np.errstate(over="ignore"):
+            rounding = 0.5 * S * ulp[-1] ** 2
+        if rounding > 0.25 * tols[i] or not np.isfinite(t[-1] / max(T, 1e-300)):
+            raise ValueError(
+                f"{_where(batched, i)}t = {t[-1]:g} is beyond what float64 resolves: the "
+                f"spacing of float64 numbers there is {ulp[-1]:.3g}, which at speeds up to "
+                f"{math.sqrt(S):.3g} moves the state by {math.sqrt(S) * ulp[-1]:.3g} "
+                f"(L_tot {rounding:.3g}), more than tol {tols[i]:g} allows")
+        # an orbit smaller than the tolerance (at rest at, or next to, an equilibrium):
+        # its starting state is the answer at every time, within (b - a)² + max p²
+        tiny = 0.5 * ((out[k, 3] - out[k, 2]) ** 2 + S)
+        if status[k] == _orbit.STATIONARY or (
+                (status[k] != _orbit.OK or dT > _LOOSE * T) and tiny <= 0.25 * tols[i]):
+            work[i] = 0.0  # the state never changes (by more than the bound)
+            periodic[i] = True
+            phase[i] = 0.0 if status[k] == _orbit.STATIONARY else tiny
+            continue
+        if status[k] == _orbit.OK and dT > _LOOSE * T:
+            if t[-1] <= DIRECT_HORIZON:
+                continue
+            raise PeriodError(
+                f"{_where(batched, i)}the period T = {T:.6g} of the orbit from (q0 = "
+                f"{q0s[i]:g}, p0 = {p0s[i]:g}), energy {energy:.10g}, is only known to "
+                f"±{dT:.2g}: it passes near q = {out[k, 6]:.6g} at almost zero speed, close "
+                "to a separatrix, where T → ∞; times up to "
+                f"{DIRECT_HORIZON:g} are integrated directly")
+        if status[k] != _orbit.OK:
+            if t[-1] <= DIRECT_HORIZON:
+                continue
+            raise PeriodError(
+                f"{_where(batched, i)}the period of the orbit from (q0 = {q0s[i]:g}, p0 = "
+                f"{p0s[i]:g}), energy {energy:.10g}, cannot be found: "
+                f"{_FAILURES[status[k]]} near q = {out[k, 6]:.6g}. The particle passes a "
+                "barrier top at (almost) zero speed, a separatrix, where T → ∞; times up "
+                f"to {DIRECT_HORIZON:g} are integrated directly")
+        turns = np.floor(t / T)
+        reduced = t - turns * T
+        turns = np.where(reduced < 0, turns - 1, np.where(reduced >= T, turns + 1, turns))
+        reduced = np.clip(t - turns * T, 0.0, T)
+        shift = turns * dT + ulp
+        shifts[i] = shift
+        # a bound (S: max of p² + V'² on the orbit) that sets the solve's share of tol;
+        # the phase error itself is measured at the solution (phase_error)
+        phase[i] = min(0.5 * S * float(np.mean(shift**2)), 0.25 * tols[i])
+        work[i, :m] = reduced
+        work[i, m] = T
+        period[i] = T
+        periodic[i] = True
+    order = np.argsort(work, axis=1, kind="stable")
+    return {"work": np.take_along_axis(work, order, axis=1), "order": order,
+            "periodic": periodic, "period": period, "phase": phase, "shift": shifts,
+            "dT": out[:, 1], "need": need, "tmax": ts[:, -1]}
+
+
+def phase_error(src, plan, q, p, tols, batched=False):
+    """The phase part of L_tot at the solution: mean((n δT + ulp)² (p² + V′²)) / 2, (N,).
+
+    Uses the states (q, p) at the asked times (N, M, in the sorted order of the plan);
+    raises :class:`PeriodError` where it exceeds a quarter of the tolerance.
+    """
+    shift = plan["shift"]
+    rows = np.flatnonzero(shift.any(axis=1))
+    phase = plan["phase"].copy()  # rows without a shift keep theirs (0, or a tiny orbit's)
+    if rows.size:
+        force = src.subset(rows).forces_at(q[rows]) if src.params.shape[0] > 1 else \
+            src.forces_at(q[rows])
+        phase[rows] = 0.5 * np.mean(shift[rows] ** 2 * (p[rows] ** 2 + force**2), axis=1)
+    bad = np.flatnonzero(phase > 0.25 * tols)
+    if bad.size:
+        i = bad[0]
+        k = int(np.flatnonzero(plan["need"] == i)[0])
+        raise PeriodError(
+            f"{_where(batched, i)}the period T = {plan['period'][i]:.15g} is known to "
+            f"±{plan['dT'][k]:.2g}; by t = {plan['tmax'][i]:g} that shifts "
+            f"the phase by up to {shift[i].max():.2g}, L_tot {phase[i]:.2g}, more than a "
+            f"quarter of tol {tols[i]:g} (near a separatrix T is hard to pin down)")
+    return phase
+
+
+def default_interval(ts, periodic):
+    """Output interval per row (see :func:`~nh_operators.integrate`), (N,).
+
+    The spacing of the asked times when they are an even grid from 0 (not for rows
+    answered from one period), else the spacing of :data:`TIMES`.
+    """
+    n, m = ts.shape
+    interval = np.full(n, TIMES[1] - TIMES[0])
+    if m >= 2:
+        gaps = np.diff(ts, axis=1)
+        g0 = gaps[:, 0]
+        even = (ts[:, 0] == 0.0) & (g0 > 0) & (np.abs(gaps - g0[:, None]).max(axis=1)
+                                               <= 1e-9 * g0) & ~periodic
+        interval[even] = g0[even]
+    return interval

@@ -1,0 +1,247 @@
+"""The adaptive classical solve of many rows at once: one potential per row, own states.
+
+:func:`solve_rows` is the substep doubling of :mod:`.classical_solve`, vectorised over
+rows: every level runs the active rows in one parallel numba kernel, and a row leaves as
+soon as its own estimate is accepted, so each row gets exactly what a solve of that row
+alone would give (same levels, same step grid, same arithmetic). Rows whose horizon
+exceeds :data:`~nh_operators.solvers.periodic.PERIODIC_FROM` are answered from one
+period (:mod:`.periodic`).
+"""
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..potentials import _spline_kernels
+from ..potentials.bounded import BoundedPotential
+from ..potentials.compiled import compiled_functions
+from . import _kernels, _orbit
+from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
+from .schemes import MAX_STEPS, ORDERS, _method
+
+__all__ = ["SAFETY", "RowSource", "row_source", "solve_rows"]
+
+#: A level is accepted when its estimate is below SAFETY · tol (:mod:`.classical_solve`).
+SAFETY = 0.01
+
+
+@dataclass
+class RowSource:
+    """A potential per row as the kernels take it (final).
+
+    Attributes:
+        force, value: ``force(par, x) -> -V'(x)`` and ``value(par, x) -> V(x)``, compiled
+            (numba) when ``compiled``, else plain Python.
+        params: (N, P) float64, row i's parameters (one dummy row for a formula).
+        compiled: whether the parallel kernels can run.
+    """
+
+    force: object
+    value: object
+    params: np.ndarray
+    compiled: bool
+
+    def subset(self, rows):
+        """The rows ``rows`` as a source of their own (a formula's stays as it is)."""
+        if self.params.shape[0] == 1:
+            return self
+        return RowSource(self.force, self.value, self.params[rows], self.compiled)
+
+    def _at(self, fn, x, rows):
+        x = np.asarray(x, dtype=np.float64)
+        params = self.params if rows is None else self.params[rows]
+        flat = x.reshape(x.shape[0], -1)
+        out = np.empty(flat.shape)
+        if self.compiled and params.shape[0] == flat.shape[0]:
+            for j in range(flat.shape[1]):
+                _orbit.pairwise(fn, params, np.ascontiguousarray(flat[:, j]), out[:, j])
+        else:
+            for i in range(flat.shape[0]):
+                for j in range(flat.shape[1]):
+                    out[i, j] = fn(params[min(i, len(params) - 1)], flat[i, j])
+        return out.reshape(x.shape)
+
+    def values_at(self, x, rows=None):
+        """V of row i at x[i] (x: (N,) or (N, M); ``rows`` picks rows of params)."""
+        return self._at(self.value, x, rows)
+
+    def forces_at(self, x, rows=None):
+        """-V' of row i at x[i], like :meth:`values_at`."""
+        return self._at(self.force, x, rows)
+
+
+def row_source(pot, information):
+    """A :class:`RowSource` for what :func:`~nh_operators.potentials.as_potential` returns,
+    for a batched :class:`BoundedPotential`, or for sensor values (N, 100).
+
+    Example:
+        >>> src = row_source("sho", "exact V")  # compiled from its second solve on
+        >>> round(src.value(src.params[0], 0.25), 12)
+        0.5
+    """
+    from .fixed_step import sensor_spline_params
+
+    if isinstance(pot, str):
+        from ..potentials.coerce import as_potential
+
+        pot, information = as_potential(pot)
+    if information == "sensors":
+        params = sensor_spline_params(np.atleast_2d(np.asarray(pot, dtype=np.float64)))
+        return RowSource(_spline_kernels.grid_force, _spline_kernels.grid_value, params, True)
+    if isinstance(pot, BoundedPotential):
+        return RowSource(_spline_kernels.bspline_force, _spline_kernels.bspline_value,
+                         pot.params, True)
+    fns = compiled_functions(pot, after=1)  # compiled from its second solve on
+    if fns is not None:
+        return RowSource(fns[1], fns[0], np.zeros((1, 1)), True)
+
+    def force(_par, x):
+        return -float(pot.dV(x))
+
+    def value(_par, x):
+        return float(pot.V(x))
+
+    return RowSource(force, value, np.zeros((1, 1)), False)
+
+
+def _grids(ts, substeps, interval):
+    t_max = ts[:, -1]
+    steps = t_max * substeps / interval - 1e-9
+    if np.any(steps > MAX_STEPS):
+        i = int(np.argmax(steps))
+        raise ValueError(f"t = {t_max[i]:g} needs {steps[i]:.3g} fixed steps at {substeps} "
+                         f"substep(s), more than {MAX_STEPS:g}; without a usable period "
+                         "the orbit is integrated directly only up to t = "
+                         f"{DIRECT_HORIZON:g}")
+    nsteps = np.where(t_max > 0, np.ceil(steps), 0).astype(np.int64)
+    hs = np.where(nsteps > 0, t_max / np.maximum(nsteps, 1), 1.0)
+    return hs, nsteps
+
+
+def _level(src, rows, work, interval, q0s, p0s, substeps, method):
+    rk4, weights = _method(method)
+    hs, nsteps = _grids(work, substeps, interval)
+    oq = np.empty((rows.size, work.shape[1]))
+    op = np.empty_like(oq)
+    if src.compiled:
+        _kernels.rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
+                            oq, op, q0s, p0s)
+    else:
+        for k, i in enumerate(rows):
+            _kernels._trajectory_fixed.py_func(src.force, src.params[0], work[i], hs[i],
+                                               nsteps[i], rk4, weights, oq[k], op[k],
+                                               q0s[i], p0s[i])
+    return oq, op
+
+
+def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=False):
+    """Solve every row to its tolerance by doubling the substeps (see :mod:`.classical_solve`).
+
+    Args:
+        src: a :class:`RowSource` with N rows.
+        t: (M,) times shared by all rows, or (N, M) per row; ≥ 0.
+        q0s, p0s: (N,) starting states (already checked).
+        tols: (N,) target L_tot per row.
+        method: a key of :data:`~nh_operators.METHODS`.
+        max_substeps: give up (with a warning) beyond this.
+        batched: name rows in messages.
+
+    Returns:
+        dict: ``q``, ``p`` (N, M) in the asked order; ``substeps``, ``estimate``,
+        ``period`` (nan where unused) and ``phase`` (the phase part of the estimate), (N,);
+        ``history``, for one row, the (substeps, estimate) of every level.
+
+    Raises:
+        ValueError: a time beyond float64's resolution, or too many steps.
+        PeriodError: see :mod:`.periodic`.
+    """
+    n = q0s.size
+    t = np.broadcast_to(np.asarray(t, dtype=np.float64), (n, np.shape(t)[-1]))
+    asked_order = np.argsort(t, axis=1, kind="stable")
+    ts = np.take_along_axis(t, asked_order, axis=1)
+    m = ts.shape[1]
+    plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
+    work, periodic = plan["work"], plan["periodic"]
+    interval = default_interval(ts, periodic)
+    solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
+    order = plan["order"]
+    if order is None:  # asked columns are work columns 0..m-1
+        col = np.broadcast_to(np.arange(m), (n, m))
+    else:  # work column of each sorted asked column
+        col = np.argsort(order, axis=1, kind="stable")[:, :m]
+    # the estimate averages the asked times and, for a row answered from one period,
+    # the time T itself (whose return to the start is checked below)
+    weight = np.zeros(work.shape)
+    np.put_along_axis(weight, col, 1.0, 1)
+    if order is not None:
+        tail = np.argsort(order, axis=1, kind="stable")[:, m]
+        with_t = np.flatnonzero(periodic & np.isfinite(plan["period"]))
+        weight[with_t, tail[with_t]] = 1.0
+    weight /= weight.sum(axis=1, keepdims=True)
+    rows = np.arange(n)
+    q_out = np.empty((n, work.shape[1]))
+    p_out = np.empty_like(q_out)
+    sub_out = np.zeros(n, dtype=np.int64)
+    est_out = np.zeros(n)
+    q, p = _level(src, rows, work, interval, q0s, p0s, 1, method)
+    previous = np.full(n, np.inf)
+    substeps = 1
+    history = []
+    while rows.size:
+        q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method)
+        w = weight[rows]
+        raw = 0.5 * (((q2 - q) ** 2 * w).sum(axis=1) + ((p2 - p) ** 2 * w).sum(axis=1))
+        estimate = raw
+        substeps *= 2
+        if n == 1:
+            history.append((substeps, float(estimate[0])))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(estimate > 0, previous[rows] / estimate, np.inf)
+        low_order = (ratio > 1.5) & (ratio < 16.0)
+        # far faster than the method's order allows: the two levels may agree by chance,
+        # so the error is bounded as if they had converged at the order only
+        expected = 4.0 ** ORDERS[method]
+        chance = np.isfinite(previous[rows]) & (ratio > 4.0 * expected)
+        estimate = np.where(chance, previous[rows] / expected, estimate)
+        done = (raw == 0.0) | ((ratio > 1.0) & (estimate <= np.where(
+            low_order, 0.25, SAFETY) * solve_tol[rows]))
+        if 2 * substeps > max_substeps:
+            if not done.all():
+                bad = rows[~done]
+                warnings.warn(f"tolerance {tols[bad[0]]:g} not reached within {max_substeps} "
+                              f"substeps (estimate {estimate[~done].max():.3g}"
+                              + (f", {bad.size} rows" if batched else "")
+                              + "); returning the finest solution", RuntimeWarning,
+                              stacklevel=4)
+            done[:] = True
+        finished = rows[done]
+        q_out[finished], p_out[finished] = q2[done], p2[done]
+        sub_out[finished], est_out[finished] = substeps, estimate[done]
+        previous[rows] = raw
+        keep = ~done
+        rows, q, p = rows[keep], q2[keep], p2[keep]
+    checked = np.flatnonzero(periodic & np.isfinite(plan["period"]))
+    if checked.size:
+        last = work.shape[1] - 1
+        pos = np.argsort(plan["order"][checked], axis=1)[:, last]
+        miss = 0.5 * ((q_out[checked, pos] - q0s[checked]) ** 2
+                      + (p_out[checked, pos] - p0s[checked]) ** 2)
+        bad = np.flatnonzero(miss > 10 * tols[checked])
+        if bad.size:
+            i = checked[bad[0]]
+            raise PeriodError(f"{'row %d: ' % i if batched else ''}the orbit does not return "
+                              f"to its starting state after the period T = "
+                              f"{plan['period'][i]:.10g} found by quadrature (squared miss "
+                              f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
+                              "stepped over")
+    qa = np.take_along_axis(q_out, col, 1)
+    pa = np.take_along_axis(p_out, col, 1)
+    phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
+    q_final = np.empty((n, m))
+    p_final = np.empty((n, m))
+    np.put_along_axis(q_final, asked_order, qa, 1)
+    np.put_along_axis(p_final, asked_order, pa, 1)
+    est = (np.sqrt(est_out) + np.sqrt(phase)) ** 2
+    return {"q": q_final, "p": p_final, "substeps": sub_out, "estimate": est,
+            "period": plan["period"], "phase": phase, "history": history}

@@ -1,0 +1,94 @@
+"""Starting states (q0, p0): broadcast to rows and checked against the walls of [0, 1].
+
+V is defined on [0, 1] only, with V(0) = V(1) = V0 and V < V0 inside. A particle stays
+inside exactly when its energy E = p0²/2 + V(q0) is at most V0 (then it turns around
+before, or at, a wall). The paper's state (0, 0) has E = V(0) = V0 and is always allowed,
+as is any other state at rest on a wall.
+"""
+
+import numpy as np
+
+from .._constants import V0
+
+__all__ = ["STATE_ATOL", "check_states", "state_arrays"]
+
+#: Energy above V0 that is still accepted (rounding of p0²/2 + V(q0)).
+STATE_ATOL = 1e-12
+
+
+def state_arrays(q0, p0, n):
+    """q0 and p0 as float64 arrays of shape (n,): scalars are repeated on every row.
+
+    Args:
+        q0, p0: scalars or arrays of shape (n,).
+        n: the number of rows.
+
+    Returns:
+        (q0s, p0s): two float64 arrays (n,).
+
+    Raises:
+        ValueError: for a wrong shape or a value that is not finite.
+
+    Example:
+        >>> q0s, p0s = state_arrays(0.5, [0.0, 1.0], 2)
+        >>> q0s.tolist(), p0s.tolist()
+        ([0.5, 0.5], [0.0, 1.0])
+    """
+    out = []
+    for name, value in (("q0", q0), ("p0", p0)):
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number or one number per row, got "
+                             f"{type(value).__name__}") from None
+        if arr.ndim == 0:
+            arr = np.full(n, float(arr))
+        elif arr.shape != (n,):
+            raise ValueError(f"{name} must be a scalar or have one value per row, shape "
+                             f"({n},); got shape {arr.shape}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            where = f"[{bad[0]}]" if n > 1 else ""
+            raise ValueError(f"{name}{where} = {arr[bad[0]]} is not finite")
+        out.append(np.ascontiguousarray(arr))
+    return out[0], out[1]
+
+
+def check_states(q0s, p0s, value_at, batched=False):
+    """Check that every state stays inside [0, 1]; return the energies.
+
+    Args:
+        q0s, p0s: (N,) arrays (see :func:`state_arrays`).
+        value_at: callable mapping the (N,) positions q0s to V of each row there.
+        batched: name rows in the messages.
+
+    Returns:
+        (N,) energies p0²/2 + V(q0).
+
+    Raises:
+        ValueError: for q0 outside [0, 1], or an energy above V0 (the message names the
+            energy and the wall the particle would cross).
+
+    Example:
+        >>> check_states(np.array([0.5]), np.array([3.0]), lambda q: 8 * (q - 0.5) ** 2)
+        Traceback (most recent call last):
+        ...
+        ValueError: the state (q0 = 0.5, p0 = 3) has energy p0²/2 + V(q0) = 4.5 > V0 = 2: the particle would cross the wall at q = 1 and leave [0, 1], where V is defined
+    """
+    for i in range(q0s.size):
+        if not 0.0 <= q0s[i] <= 1.0:
+            row = f"row {i}: " if batched else ""
+            raise ValueError(f"{row}q0 = {q0s[i]:g} is outside [0, 1], where V is defined")
+    with np.errstate(all="ignore"):
+        energy = 0.5 * p0s**2 + np.asarray(value_at(q0s), dtype=np.float64).reshape(-1)
+    at_rest_on_wall = (p0s == 0.0) & ((q0s == 0.0) | (q0s == 1.0))
+    bad = np.flatnonzero(~(energy <= V0 + STATE_ATOL) & ~at_rest_on_wall)
+    if bad.size:
+        i = bad[0]
+        row = f"row {i}: " if batched else ""
+        wall = ("q = 1" if p0s[i] > 0 else "q = 0" if p0s[i] < 0
+                else "q = 0 and q = 1")
+        raise ValueError(f"{row}the state (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}) has energy "
+                         f"p0²/2 + V(q0) = {energy[i]:.10g} > V0 = {V0:g}: the particle would "
+                         f"cross the wall at {wall} and leave [0, 1], where V is defined")
+    return energy

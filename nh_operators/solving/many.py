@@ -1,0 +1,283 @@
+"""``solve_many``: many potentials, states and horizons at once, each row by its own method.
+
+A scene (an animation, a parameter sweep, an ensemble) is N rows, each a potential with
+its own starting state (q0, p0) and its own times. :func:`solve_many` chooses per row,
+as :func:`~nh_operators.solve` would for that row alone: with ``method="auto"`` and a
+tolerance, a shipped network is tried on the rows where :func:`solve` would try it (the
+state (0, 0), times in [0, 2], sensor values inside the generator's domain), its
+prediction kept where its own estimate meets the tolerance, and every other row is
+solved classically — all classical rows together, in one parallel numba kernel per
+substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a progress
+bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
+"""
+
+import re
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._backend import single_threaded
+from .._constants import SENSORS, TIMES
+from ..potentials import GENERATOR_DOMAIN, BoundedPotential, check_bounded
+from ..solvers import ORDERS
+from ..solvers.rows import row_source, solve_rows
+from ..solvers.schemes import _check_times
+from ..solvers.states import check_states, state_arrays
+from .auto_solve import (DEFAULT_TOL, _calibration, _method_name, _model, _networks, _ranked,
+                         _solve)
+from .estimate import raw_estimate, sensor_force
+
+__all__ = ["CHUNK", "ManySolution", "solve_many"]
+
+#: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
+CHUNK = 8192
+#: Rows from which a progress bar is shown (``progress=None``).
+PROGRESS_FROM = 20_000
+#: Rows from which the classical kernels run on all of numba's threads.
+THREADS_FROM = 256
+
+
+@dataclass
+class ManySolution:
+    """What :func:`solve_many` returns.
+
+    Attributes:
+        q, p: float64 arrays (N, M), row i at row i's times, in their order.
+        methods: (N,) array of method names (``"rk4"``, ``"traonet"``, ...).
+        error_estimate: (N,) estimated L_tot of each row.
+        records: one dict per row: ``method``, ``kind`` (``"classical"`` or
+            ``"neural"``), ``error_estimate``, and for classical rows ``substeps`` and
+            ``period`` (T when the times were answered from one period, else None).
+        seconds: wall time of the whole call.
+        tol: the tolerance asked for.
+        tried: networks tried, with how many rows each accepted.
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    methods: np.ndarray
+    error_estimate: np.ndarray
+    records: list
+    seconds: float
+    tol: float = None
+    tried: list = field(default_factory=list)
+
+
+def _in_domain(V):
+    """Rows of sensor values (N, 100) inside :data:`GENERATOR_DOMAIN` (the checks of
+    :func:`~nh_operators.domain_violations`, per row)."""
+    d = GENERATOR_DOMAIN
+    width = SENSORS[1] - SENSORS[0]
+    lo, hi = d["V_range"]
+    return ((V.min(axis=1) >= lo - 1e-9) & (V.max(axis=1) <= hi + 1e-9)
+            & (V.min(axis=1) <= d["min_V_at_most"])
+            & (np.abs(np.diff(V, axis=1)).max(axis=1) / width <= d["max_slope"])
+            & (np.abs(np.diff(V, 2, axis=1)).max(axis=1) / width**2 <= d["max_curvature"]))
+
+
+def _bar(total, progress):
+    show = total >= PROGRESS_FROM if progress is None else bool(progress)
+    if not show:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, unit="row", desc="solve_many")
+
+
+def _network_rows(name, V, src, t, rows, tol):
+    """Predict rows ``rows`` with shipped model ``name``; (q, p, estimate) of those rows."""
+    from scipy.interpolate import CubicSpline
+
+    from ..models import predict
+
+    model = _model(name)
+    q, p = predict(model.net, V[rows], TIMES)
+    if src is None:
+        force = sensor_force(V[rows])
+    else:
+        sub = rows
+
+        def values(x):
+            return src.values_at(x, sub)
+
+        def slopes(x):
+            return -src.forces_at(x, sub)
+
+        force = (values, slopes)
+    raw = np.asarray(raw_estimate(q, p, *force), dtype=np.float64)
+    factor = model.calibration["factor"] if model.calibration else 1.0
+    estimate = np.where(np.isfinite(raw), factor * raw, np.inf)
+    if t.ndim == 1 and np.array_equal(t, TIMES):
+        return q, p, estimate
+    qs, ps = CubicSpline(TIMES, q, axis=1), CubicSpline(TIMES, p, axis=1)
+    if t.ndim == 1:
+        return qs(t), ps(t), estimate
+    qa = np.stack([qs(t[i])[k] for k, i in enumerate(rows)]) if rows.size else q[:, :0]
+    pa = np.stack([ps(t[i])[k] for k, i in enumerate(rows)]) if rows.size else p[:, :0]
+    return qa, pa, estimate
+
+
+def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progress=None):
+    """Trajectories of N rows: each a potential, a starting state and times.
+
+    Args:
+        potentials: sensor values (N, 100); a batched
+            :class:`~nh_operators.BoundedPotential`; or a list of anything
+            :func:`~nh_operators.solve` takes (formulas, names, objects), solved one by
+            one.
+        t: times shared by every row, shape (M,), or per row, shape (N, M); ≥ 0.
+        q0, p0: starting states, scalars or (N,); every energy p0²/2 + V(q0) ≤ V0.
+        tol: target L_tot per row (> 0); ``None``: classical at :data:`DEFAULT_TOL`.
+        method: ``"auto"``, ``"classical"``, an integrator of
+            :data:`~nh_operators.METHODS`, or a shipped model (forced on every row: the
+            states must be (0, 0) and the times in [0, 2]).
+        progress: show a progress bar (``None``: when N ≥ 20,000).
+
+    Returns:
+        :class:`ManySolution`.
+
+    Raises:
+        ValueError: bad shapes, states, times, tolerance or method; a forced network
+            on a state other than (0, 0).
+        PeriodError: a row whose far horizon has no usable period (a separatrix).
+
+    Example:
+        >>> import numpy as np
+        >>> V = np.stack([8 * (SENSORS - 0.5) ** 2, 2 - 7.5 * SENSORS * (1 - SENSORS)])
+        >>> sol = solve_many(V, [0.5, 1e6], q0=[0.0, 0.5], p0=[0.0, 1.0], tol=1e-8)
+        >>> sol.q.shape, sol.methods.tolist(), bool(sol.error_estimate.max() <= 1e-8)
+        ((2, 2), ['rk4', 'rk4'], True)
+    """
+    start = time.perf_counter()
+    rows = len(potentials) if isinstance(potentials, (list, tuple, BoundedPotential)) \
+        and not (isinstance(potentials, BoundedPotential) and not potentials.batched) \
+        else np.atleast_2d(np.asarray(potentials, dtype=np.float64)).shape[0]
+    if rows < THREADS_FROM:  # threads only wait for time slices on a busy machine
+        with single_threaded():
+            return _solve_many(potentials, t, q0, p0, tol, method, progress, start)
+    return _solve_many(potentials, t, q0, p0, tol, method, progress, start)
+
+
+def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
+    method = _method_name(method)
+    if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be a positive number or None, got {tol!r}")
+    networks = _networks()
+    classical = {"classical": "rk4", **{m: m for m in ORDERS}}
+    if method != "auto" and method not in classical and method not in networks:
+        raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
+                         f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
+    if isinstance(potentials, (list, tuple)):
+        return _one_by_one(potentials, t, q0, p0, tol, method, start)
+    if isinstance(potentials, BoundedPotential):
+        if not potentials.batched:
+            raise ValueError("a single BoundedPotential: use nh.solve, or pass a batch")
+        src = row_source(potentials, "exact V")
+        V = None
+    else:
+        V = check_bounded(np.atleast_2d(np.asarray(potentials, dtype=np.float64)))
+        src = row_source(V, "sensors")
+    n = src.params.shape[0]
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim == 2 and t.shape[0] == n and t.shape[1] >= 1:
+        for row in t:
+            _check_times(row)
+    elif t.ndim <= 1:
+        t = _check_times(t.reshape(-1))
+    else:
+        raise ValueError(f"t must have shape (M,) or (N, M) = ({n}, M); got {t.shape}")
+    q0s, p0s = state_arrays(q0, p0, n)
+    check_states(q0s, p0s, src.values_at, batched=True)
+    target = DEFAULT_TOL if tol is None else float(tol)
+    methods = np.full(n, classical.get(method, "rk4"), dtype=object)
+    estimate = np.zeros(n)
+    m = t.shape[-1]
+    q_out, p_out = np.empty((n, m)), np.empty((n, m))
+    classical_rows = np.arange(n)
+    tried = []
+    rest = (q0s == 0.0) & (p0s == 0.0)
+    if method in networks:
+        if not rest.all():
+            bad = int(np.flatnonzero(~rest)[0])
+            raise ValueError(f"{method} was trained from the state (0, 0) only; row {bad} "
+                             f"starts at ({q0s[bad]:g}, {p0s[bad]:g})")
+        if t.max() > TIMES[-1] + 1e-12:
+            raise ValueError(f"{method} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
+        name = method
+    elif method == "auto" and tol is not None:
+        kind = "sensors" if V is not None else "bspline"
+        best = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks))[0]
+        name = best[0] if best is not None else None
+    else:
+        name = None
+    if name is not None:
+        values = V if V is not None else potentials.V(SENSORS)
+        times_ok = t.max(axis=-1) <= TIMES[-1] + 1e-12
+        ok = rest & np.broadcast_to(times_ok, (n,))
+        if method == "auto":
+            ok &= _in_domain(values)
+        rows = np.flatnonzero(ok)
+        if rows.size:
+            qn, pn, est = _network_rows(name, values, None if V is not None else src, t, rows,
+                                        target)
+            take = est <= target if method == "auto" else np.ones(rows.size, dtype=bool)
+            q_out[rows[take]], p_out[rows[take]] = qn[take], pn[take]
+            estimate[rows[take]] = est[take]
+            methods[rows[take]] = name
+            tried.append({"method": name, "rows": int(rows.size), "accepted": int(take.sum())})
+            classical_rows = np.setdiff1d(classical_rows, rows[take])
+    substeps = np.zeros(n, dtype=np.int64)
+    period = np.full(n, np.nan)
+    bar = _bar(classical_rows.size, progress)
+    integrator = classical.get(method, "rk4")
+    for lo in range(0, classical_rows.size, CHUNK):
+        rows = classical_rows[lo:lo + CHUNK]
+        sub = src.subset(rows)
+        try:
+            out = solve_rows(sub, t[rows] if t.ndim == 2 else t, q0s[rows], p0s[rows],
+                             np.full(rows.size, target), integrator, batched=True)
+        except ValueError as err:  # name the row of the whole call, not of the chunk
+            text = re.sub(r"^row (\d+):", lambda m: f"row {rows[int(m.group(1))]}:", str(err))
+            raise type(err)(text) from None
+        q_out[rows], p_out[rows] = out["q"], out["p"]
+        estimate[rows], substeps[rows], period[rows] = (out["estimate"], out["substeps"],
+                                                        out["period"])
+        if bar is not None:
+            bar.update(rows.size)
+    if bar is not None:
+        bar.close()
+    neural = set(networks)
+    records = [{"method": str(methods[i]), "kind": "neural" if methods[i] in neural
+                else "classical", "error_estimate": float(estimate[i]),
+                **({} if methods[i] in neural else {
+                    "substeps": int(substeps[i]),
+                    "period": None if np.isnan(period[i]) else float(period[i])})}
+               for i in range(n)]
+    return ManySolution(q_out, p_out, methods.astype(str), estimate, records,
+                        time.perf_counter() - start, tol, tried)
+
+
+def _one_by_one(potentials, t, q0, p0, tol, method, start):
+    """A list of potentials: :func:`solve` on each row (its own compiled formula)."""
+    n = len(potentials)
+    q0s, p0s = state_arrays(q0, p0, n)
+    t = np.asarray(t, dtype=np.float64)
+    rows_t = t if t.ndim == 2 else np.broadcast_to(t.reshape(-1), (n, t.size))
+    if rows_t.shape[0] != n:
+        raise ValueError(f"t must have shape (M,) or (N, M) = ({n}, M); got {t.shape}")
+    sols = []
+    for i, pot in enumerate(potentials):
+        try:
+            sols.append(_solve(pot, rows_t[i], tol, method, None, time.perf_counter(),
+                               float(q0s[i]), float(p0s[i])))
+        except ValueError as err:
+            raise type(err)(f"row {i}: {err}") from None
+    records = [{"method": s.method, "kind": s.kind, "error_estimate": s.error_estimate,
+                **({"substeps": s.tried[-1].get("substeps"),
+                    "period": s.tried[-1].get("period")} if s.kind == "classical" else {})}
+               for s in sols]
+    return ManySolution(np.stack([s.q for s in sols]), np.stack([s.p for s in sols]),
+                        np.array([s.method for s in sols]),
+                        np.array([s.error_estimate for s in sols]), records,
+                        time.perf_counter() - start, tol)

@@ -1,0 +1,262 @@
+"""Any starting state and any horizon: exact solutions, periods, refusals (issue 14)."""
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import nh_operators as nh
+from nh_operators.evaluation import loss_per_sample
+from nh_operators.solvers import PeriodError, integrate, integrate_sensors, solve_classical
+from nh_operators.solvers.periodic import orbit_periods
+from nh_operators.solvers.rows import row_source
+
+SHO = nh.PHYSICAL_POTENTIALS["sho"]
+DW = nh.PHYSICAL_POTENTIALS["double_well"]
+MORSE = nh.PHYSICAL_POTENTIALS["morse"]
+
+
+def sho_exact(q0, p0, t):
+    """V = 8 (q - 1/2)²: q = 1/2 + A cos(4t + φ), p = -4 A sin(4t + φ), T = π/2."""
+    A, phi = math.hypot(q0 - 0.5, p0 / 4), math.atan2(-p0 / 4, q0 - 0.5)
+    return 0.5 + A * np.cos(4 * t + phi), -4 * A * np.sin(4 * t + phi)
+
+
+def mff_exact(q0, p0, t):
+    """V = 4 |q - 1/2|: parabolas glued at q = 1/2; period sqrt(2E) (speed at the centre)."""
+    energy = 0.5 * p0**2 + 4 * abs(q0 - 0.5)
+    period = math.sqrt(2 * energy)
+    qs, ps = [], []
+    for tk in np.atleast_1d(t):
+        q, p, left = q0, p0, math.fmod(tk, period)
+        while True:
+            s = 1.0 if q > 0.5 or (q == 0.5 and p > 0) else -1.0  # side; acceleration -4 s
+            tau = (s * p + math.sqrt(p * p + 8 * abs(q - 0.5))) / 4  # time to reach 1/2
+            if tau <= 0:
+                tau = s * p / 2 if s * p > 0 else 0.0
+            if left < tau or tau == 0.0 and p == 0:
+                q, p = q + p * left - 2 * s * left**2, p - 4 * s * left
+                break
+            q, p, left = 0.5, p - 4 * s * tau, left - tau
+        qs.append(q)
+        ps.append(p)
+    return np.array(qs), np.array(ps)
+
+
+def true_loss(sol, q, p):
+    return float(loss_per_sample(sol.q, sol.p, q, p)["L_tot"])
+
+
+STATES = [(0.0, 0.0), (0.3, 0.5), (0.5, -1.7), (0.9, 0.0), (1.0, 0.0)]
+
+
+@pytest.mark.parametrize("q0, p0", STATES)
+def test_sho_from_any_state_short_and_at_1e6(q0, p0):
+    t = np.array([0.0, 0.37, 1.9, 123.4, 1e6 - 0.1, 1e6])
+    sol = solve_classical("sho", t, tol=1e-10, q0=q0, p0=p0)
+    assert sol.error_estimate <= 1e-10
+    assert true_loss(sol, *sho_exact(q0, p0, t)) <= 1e-10
+    assert abs(sol.period - math.pi / 2) <= 1e-12
+
+
+@pytest.mark.parametrize("q0, p0", [(0.0, 0.0), (0.2, 1.0), (0.6, -1.5)])
+def test_mff_from_any_state_is_met_at_far_times(q0, p0):
+    t = np.array([0.1, 1.3, 77.7, 2.5e5])
+    sol = nh.solve("mff", t, tol=1e-6, q0=q0, p0=p0)
+    energy = 0.5 * p0**2 + 4 * abs(q0 - 0.5)
+    assert abs(sol.tried[-1]["period"] - math.sqrt(2 * energy)) <= 1e-11
+    assert true_loss(sol, *mff_exact(q0, p0, t)) <= 1e-6 and sol.error_estimate <= 1e-6
+
+
+def mp_period(name, q0, p0):
+    """Independent: turning points and tanh-sinh quadrature in 30-digit mpmath."""
+    mpmath = pytest.importorskip("mpmath")
+    mp = mpmath.mp
+    mp.dps = 30
+    if name == "double_well":
+        V = lambda q: mp.mpf(625) / 8 * (q - mp.mpf("0.2")) ** 2 * (q - mp.mpf("0.8")) ** 2
+    else:
+        from nh_operators.potentials.physical import _A, _DE
+
+        V = lambda q: mp.mpf(_DE) * (1 - mp.exp(-mp.mpf(_A) * (q - mp.mpf(1) / 3))) ** 2
+    energy = mp.mpf(p0) ** 2 / 2 + V(mp.mpf(q0))
+    gap = lambda q: energy - V(q)
+    grid = [mp.mpf(k) / 4000 for k in range(4001)]
+    k = min(range(4001), key=lambda j: abs(grid[j] - q0))
+    lo = hi = k
+    while lo > 0 and gap(grid[lo - 1]) > 0:
+        lo -= 1
+    while hi < 4000 and gap(grid[hi + 1]) > 0:
+        hi += 1
+    # past a wall where E exceeds V there by rounding, as the solver does
+    a = mp.findroot(gap, (grid[lo - 1], grid[lo]) if lo else (mp.mpf(-0.05), grid[0]),
+                    solver="anderson") if gap(grid[lo]) != 0 or lo else grid[0]
+    b = mp.findroot(gap, (grid[hi], grid[hi + 1]) if hi < 4000 else (grid[-1], mp.mpf(1.05)),
+                    solver="anderson")
+    return float(2 * mp.quad(lambda q: 1 / mp.sqrt(abs(2 * gap(q))), [a, q0, b]))
+
+
+@pytest.mark.parametrize("pot, q0, p0", [(DW, 0.0, 0.0), (DW, 0.2, 1.0), (DW, 0.75, -0.3),
+                                         (MORSE, 0.0, 0.0), (MORSE, 0.4, 0.5),
+                                         (MORSE, 0.9, -1.0)])
+def test_periods_against_mpmath(pot, q0, p0):
+    src = row_source(pot, "exact V")
+    out, status = orbit_periods(src, np.array([0]), np.array([q0]), np.array([p0]))
+    ref = mp_period(pot.name, q0, p0)
+    assert status[0] == 0
+    assert abs(out[0, 0] - ref) <= 1e-10 * ref
+    assert out[0, 1] <= 1e-11 * ref  # the bound is tight, yet covers the difference
+    # the Python path (a potential known only as a callable) gives the same period
+    slow = row_source(nh.potentials.CallablePotential(pot.V, pot.dV), "exact V")
+    out2, _ = orbit_periods(slow, np.array([0]), np.array([q0]), np.array([p0]))
+    assert abs(out2[0, 0] - out[0, 0]) <= 1e-12 * ref
+
+
+def test_spline_and_sensor_periods_agree_with_the_trajectory(pots):
+    q0, p0 = 0.37, 0.2
+    for pot in (pots[0], pots[1].V(nh.SENSORS)):
+        information = "sensors" if isinstance(pot, np.ndarray) else "exact V"
+        sol = solve_classical(pot, [1e5], tol=1e-8, q0=q0, p0=p0)
+        T = sol.period
+        near = solve_classical(pot, [1e5 - T * math.floor(1e5 / T)], tol=1e-10, q0=q0, p0=p0)
+        assert information and abs(sol.q[0] - near.q[0]) < 1e-4
+        back = solve_classical(pot, [T], tol=1e-12, q0=q0, p0=p0)  # returns to its start
+        assert abs(back.q[0] - q0) < 1e-6 and abs(back.p[0] - p0) < 1e-6
+
+
+def test_integrate_and_integrate_sensors_from_a_state():
+    t = np.linspace(0, 2, 11)
+    q, p = integrate(SHO, t, substeps=64, q0=0.3, p0=0.5)
+    qe, pe = sho_exact(0.3, 0.5, t)
+    assert np.abs(q - qe).max() < 1e-9 and np.abs(p - pe).max() < 1e-8
+    V = SHO.V(nh.SENSORS)
+    qs, _ = integrate_sensors(np.stack([V, V]), t, substeps=64, q0=[0.3, 0.5], p0=[0.5, 0.0])
+    assert np.abs(qs[0] - qe).max() < 1e-9 and np.allclose(qs[1], 0.5, atol=1e-12)
+
+
+def test_bad_states_name_the_energy_and_the_wall():
+    with pytest.raises(ValueError, match=r"^q0 = 1.2 is outside \[0, 1\], where V is defined$"):
+        solve_classical("sho", [1.0], q0=1.2)
+    with pytest.raises(ValueError, match=r"the state \(q0 = 0.5, p0 = -3\) has energy p0²/2 "
+                       r"\+ V\(q0\) = 4.5 > V0 = 2: the particle would cross the wall at "
+                       r"q = 0 and leave \[0, 1\]"):
+        nh.solve("sho", [1.0], q0=0.5, p0=-3.0)
+    with pytest.raises(ValueError, match=r"row 1: the state \(q0 = 0.5, p0 = 2.5\) has "
+                       r"energy .* = 3.125 > V0 = 2: the particle would cross the wall at q = 1"):
+        integrate_sensors(np.stack([SHO.V(nh.SENSORS)] * 2), [1.0], q0=0.5, p0=[0.0, 2.5])
+    with pytest.raises(ValueError, match="q0 must be a scalar or have one value per row"):
+        integrate(SHO, [1.0], q0=[0.1, 0.2])
+    with pytest.raises(ValueError, match="trained from the state \\(0, 0\\) only"):
+        nh.solve("sho", [1.0], method="deeponet", q0=0.3)
+
+
+def test_separatrix_refuses_far_times_but_integrates_near_ones():
+    top = float(DW.V(0.5))  # barrier top of the double well
+    p0 = math.sqrt(2 * (top - float(DW.V(0.2))))  # from the bottom, exactly to the top
+    near = solve_classical(DW, [10.0], tol=1e-8, q0=0.2, p0=p0)  # integrated directly
+    assert near.period is None and abs(near.q[0] - 0.5) < 1e-3
+    with pytest.raises(PeriodError, match=r"the period T = .* of the orbit from \(q0 = 0.2, "
+                       r"p0 = 1.125\), energy 0.6328125, is only known to ±.*: it passes near "
+                       r"q = 0.5\d* at almost zero speed, close to a separatrix"):
+        solve_classical(DW, [1e3], tol=1e-8, q0=0.2, p0=p0)
+    with pytest.raises(PeriodError, match=r"cannot be found: it turns around where V' "
+                       r"\(almost\) vanishes.* near q = 0.5\d*\. The particle passes a "
+                       r"barrier top at \(almost\) zero speed, a separatrix"):
+        solve_classical(DW, [1e3], tol=1e-8, q0=0.2, p0=p0 * (1 - 1e-8))
+    at_top = solve_classical(DW, [1e6], q0=0.5, p0=0.0)  # at rest on the top: stays
+    assert at_top.q[0] == 0.5 and at_top.p[0] == 0.0
+
+
+def test_huge_times_are_refused_fast():
+    start = time.perf_counter()
+    beyond = r"t = 1e\+300 is beyond what float64 resolves: the spacing of float64 numbers"
+    with pytest.raises(ValueError, match=beyond):
+        nh.solve("8*(q-0.5)**2", [1e300])
+    with pytest.raises(ValueError, match=beyond):
+        nh.solve(SHO.V(nh.SENSORS), [1e300])
+    with pytest.raises(ValueError, match=r"t = 1e\+300 needs .* fixed steps at 1 substep"):
+        integrate_sensors(SHO.V(nh.SENSORS), [1e300])
+    with pytest.raises(ValueError, match=r"t = 1e\+16 is beyond what float64 resolves"):
+        nh.solve("sho", [1e16], tol=1e-6)
+    sol = nh.solve(SHO.V(nh.SENSORS), [0.5, 1e6])  # was 120 s
+    assert time.perf_counter() - start < 10 and sol.error_estimate <= nh.DEFAULT_TOL
+    assert true_loss(sol, *SHO.exact(np.array([0.5, 1e6]))) <= nh.DEFAULT_TOL
+
+
+def test_cost_does_not_grow_with_the_horizon():
+    def best(t):
+        times = []
+        for _ in range(5):
+            times.append(nh.solve("8*(q-0.5)**2", [t], tol=1e-6).seconds)
+        return min(times)
+
+    best(1.0)  # compile
+    assert best(1e6) < 4 * best(2.0) + 2e-3
+
+
+def _contract(items, tols, horizons, rng):
+    """(share met, worst true/tol, median time ratio to [0, 2]) per (tol, horizon)."""
+    rows = {}
+    for tol in tols:
+        for horizon in horizons:
+            met, worst, ratios = 0, 0.0, []
+            for pot, q0, p0 in items:
+                t = np.sort(rng.uniform(0, horizon, 20))
+                t[-1] = horizon
+                start = time.perf_counter()
+                sol = nh.solve(pot, t, tol=tol, q0=q0, p0=p0)
+                seconds = time.perf_counter() - start
+                start = time.perf_counter()
+                nh.solve(pot, np.linspace(0, 2, 20), tol=tol, q0=q0, p0=p0)
+                ratios.append(seconds / (time.perf_counter() - start))
+                if pot == "sho":
+                    ref = sho_exact(q0, p0, t)
+                elif pot == "mff":
+                    ref = mff_exact(q0, p0, t)
+                else:
+                    T = sol.tried[-1]["period"]
+                    r = t - np.floor(t / T) * T
+                    ref_sol = nh.solve(pot, r, tol=1e-13, method="yoshida8", q0=q0, p0=p0)
+                    ref = ref_sol.q, ref_sol.p
+                true = true_loss(sol, *ref)
+                met += true <= tol
+                worst = max(worst, true / tol)
+            rows[tol, horizon] = (met / len(items), worst, float(np.median(ratios)))
+    return rows
+
+
+def _states_for(pots, rng):
+    items = []
+    for pot in pots:
+        V = nh.PHYSICAL_POTENTIALS[pot] if isinstance(pot, str) else pot
+        q0 = float(rng.uniform(0.1, 0.9))
+        p0 = float(rng.choice([-1, 1]) * math.sqrt(2 * (2.0 - float(V.V(q0)))
+                                                    * rng.uniform(0.05, 0.9)))
+        items += [(pot, 0.0, 0.0), (pot, q0, p0)]
+    return items
+
+
+def test_horizon_contract_small(pots):
+    """The contract's CI version: exact SHO and MFF, the double well and one B-spline."""
+    rng = np.random.default_rng(14)
+    items = _states_for(["sho", "mff", "double_well", pots[2]], rng)
+    rows = _contract(items, [1e-8], [1e6], rng)
+    share, worst, _ = rows[1e-8, 1e6]
+    assert share == 1.0 and worst <= 1.0
+
+
+@pytest.mark.slow
+def test_horizon_contract(pots):
+    """Issue 14: at t up to 1e6, physical and test-set potentials, from (0, 0) and random
+    bounded states, true L_tot ≤ tol at 1e-4, 1e-6, 1e-8, at most 2× the time on [0, 2]."""
+    rng = np.random.default_rng(15)
+    from nh_operators.potentials import BoundedPotentialSpace
+
+    test = BoundedPotentialSpace.potentials(BoundedPotentialSpace(seed=42).random(10))
+    names = ["sho", "mff", "double_well", "morse", "smff"]
+    items = _states_for(names + [test[i] for i in range(10)], rng)
+    rows = _contract(items, [1e-4, 1e-6, 1e-8], [1e2, 1e4, 1e6], rng)
+    for (tol, horizon), (share, worst, ratio) in rows.items():
+        assert share == 1.0 and worst <= 1.0, (tol, horizon, worst)
+        assert ratio <= 2.0, (tol, horizon, ratio)

@@ -1,0 +1,71 @@
+"""solve_many: row by row the same as solve, from any state, at any horizon (issue 14)."""
+
+import numpy as np
+import pytest
+
+import nh_operators as nh
+from nh_operators.evaluation import loss_per_sample
+
+
+@pytest.fixture(scope="module")
+def scene(pots):
+    rng = np.random.default_rng(14)
+    V = pots.V(nh.SENSORS)
+    # random bounded states: q0 anywhere, p0 within what the energy allows
+    q0 = rng.uniform(0.05, 0.95, len(V))
+    room = 2.0 - np.array([np.interp(q, nh.SENSORS, v) for q, v in zip(q0, V)])
+    p0 = rng.choice([-1, 1], len(V)) * np.sqrt(2 * room * rng.uniform(0, 0.9, len(V)))
+    return V, q0, p0
+
+
+def test_rows_equal_solve_row_by_row(scene):
+    V, q0, p0 = scene
+    t = np.array([0.3, 1.7, 5.5, 1e4])
+    many = nh.solve_many(V, t, q0=q0, p0=p0, tol=1e-8)
+    assert many.q.shape == (len(V), 4) and set(many.methods) == {"rk4"}
+    for i in range(len(V)):
+        one = nh.solve(V[i], t, q0=q0[i], p0=p0[i], tol=1e-8)
+        assert np.abs(one.q - many.q[i]).max() <= 1e-14
+        assert np.abs(one.p - many.p[i]).max() <= 1e-14
+        assert one.error_estimate == pytest.approx(many.error_estimate[i], rel=1e-12)
+        assert many.records[i]["substeps"] == one.tried[-1]["substeps"]
+
+
+def test_batched_bspline_per_row_times_and_the_state_zero(pots, reference):
+    q_ref, p_ref, _ = reference
+    t = np.broadcast_to(nh.TIMES, (len(pots), nh.TIMES.size))
+    many = nh.solve_many(pots, t, tol=1e-8, method="classical")
+    assert np.all(loss_per_sample(many.q, many.p, q_ref, p_ref)["L_tot"] <= 1e-8)
+    one = nh.solve(pots[3], nh.TIMES, tol=1e-8, method="classical")
+    assert np.abs(one.q - many.q[3]).max() <= 1e-14
+
+
+def test_formulas_one_by_one_and_records():
+    many = nh.solve_many(["8*(q-0.5)**2", "mff", "625/8*(q-0.2)**2*(q-0.8)**2"], [1.0, 3e5],
+                         q0=[0.5, 0.0, 0.3], p0=[1.0, 0.0, 0.0], tol=1e-6)
+    assert many.q.shape == (3, 2)
+    assert [r["kind"] for r in many.records] == ["classical"] * 3
+    assert many.records[1]["period"] == pytest.approx(2.0, abs=1e-12)
+    q, p = nh.PHYSICAL_POTENTIALS["mff"].exact(np.array([1.0, 3e5]))
+    assert loss_per_sample(many.q[1], many.p[1], q, p)["L_tot"] <= 1e-6
+
+
+def test_auto_uses_networks_only_where_allowed(scene):
+    V, q0, p0 = scene
+    q0 = q0.copy()
+    q0[::2] = 0.0
+    p0 = np.where(q0 == 0.0, 0.0, p0)
+    many = nh.solve_many(V, nh.TIMES, q0=q0, p0=p0, tol=1e-2)
+    moved = q0 != 0.0
+    assert set(many.methods[moved]) == {"rk4"}
+    assert np.all(many.error_estimate <= 1e-2)
+    with pytest.raises(ValueError, match=r"trained from the state \(0, 0\) only; row 1"):
+        nh.solve_many(V, nh.TIMES, q0=q0, p0=p0, method="deeponet")
+
+
+def test_bad_rows_are_named(scene):
+    V = scene[0]
+    with pytest.raises(ValueError, match=r"row 2: the state \(q0 = 0.5, p0 = 3\) has energy"):
+        nh.solve_many(V, [1.0], q0=0.5, p0=[0, 0, 3.0] + [0] * (len(V) - 3))
+    with pytest.raises(ValueError, match=r"t must have shape \(M,\) or \(N, M\)"):
+        nh.solve_many(V, np.zeros((2, 3)))
