@@ -9,9 +9,12 @@ from .bspline import MAX_CONTROL
 
 FunctionSpace = ensure_pytorch_backend().data.function_spaces.FunctionSpace
 
-__all__ = ["BoundedPotentialSpace"]
+__all__ = ["BoundedPotentialSpace", "NORMALIZATIONS"]
 
 MAX_GRF = MAX_CONTROL - 2
+#: How GRF values become control values: each potential on its own (Algorithm 1 as
+#: printed) or a whole pool of candidates at once (the paper's reference code).
+NORMALIZATIONS = ("potential", "batch")
 
 
 def _as_generator(seed):
@@ -46,6 +49,19 @@ class BoundedPotentialSpace(FunctionSpace):
     Each potential is drawn from the generator in turn (n_GRF, l, the GRF normals, the
     abscissae), so the k-th potential does not depend on how many are drawn at once.
 
+    **The reference code's distribution** (``normalization="batch"``). The paper's
+    tables were not made with step 3 as printed: the authors' code draws ``pool``
+    candidates (1.25 n for a dataset of n) and min-max normalises the GRF values of *all*
+    of them at once, V_i = V0 - 2 V0 u_i with u over the whole pool, so most potentials
+    get shallow, gentle interiors (interior control values of mean ≈ 0.1 and std ≈ 0.5,
+    against the full [-2, 1.8] of every potential here). The candidates are drawn
+    exactly as above (n_GRF, l, normals, abscissae, in turn), then normalised together;
+    the one candidate whose value maps to V0 itself (the pool's minimum) is skipped, so
+    the interior stays strictly below V0 (:attr:`skipped` counts it), and candidates
+    are served in order. The pool is drawn on first use from the seeded generator, so
+    it depends only on the seed and ``pool``; asking for more potentials than the pool
+    holds is an error.
+
     Features (DeepXDE's ``random`` format) have shape (n, 1 + 2 MAX_GRF) = (n, 15):
     ``[n_GRF, q_1..q_7, V_1..V_7]``, NaN beyond n_GRF. They rebuild the potential
     exactly.
@@ -55,7 +71,11 @@ class BoundedPotentialSpace(FunctionSpace):
         n_grf: (min, max) number of interior control points, both in [2, 7].
         length_scale: (min, max) of the GRF length scale.
         omega: the stability parameter ω, in (0, 1 / (2 max n_GRF)).
-        margin: fraction of the 2 V0 range kept free below V0, in (0, 1).
+        margin: fraction of the 2 V0 range kept free below V0, in (0, 1)
+            (``normalization="potential"`` only).
+        normalization: ``"potential"`` (Algorithm 1, each potential on its own) or
+            ``"batch"`` (the reference code: the whole pool at once).
+        pool: the number of candidates normalised together (required for ``"batch"``).
 
     Example:
         >>> space = BoundedPotentialSpace(seed=1)
@@ -65,7 +85,7 @@ class BoundedPotentialSpace(FunctionSpace):
     """
 
     def __init__(self, seed=None, *, n_grf=(2, 7), length_scale=(0.01, 0.2), omega=0.05,
-                 margin=0.05):
+                 margin=0.05, normalization="potential", pool=None):
         lo, hi = n_grf
         if not 2 <= lo <= hi <= MAX_GRF:
             raise ValueError(f"n_grf must satisfy 2 <= min <= max <= {MAX_GRF}, got {n_grf}")
@@ -75,6 +95,19 @@ class BoundedPotentialSpace(FunctionSpace):
             raise ValueError(f"omega must lie in (0, 1/(2 n_grf_max)) = (0, {1 / (2 * hi):.4g})")
         if not 0 < margin < 1:
             raise ValueError(f"margin must lie in (0, 1), got {margin}")
+        if normalization not in NORMALIZATIONS:
+            raise ValueError(f"normalization must be one of {NORMALIZATIONS}, got "
+                             f"{normalization!r}")
+        if normalization == "batch" and not (isinstance(pool, (int, np.integer)) and pool >= 2):
+            raise ValueError(f"normalization='batch' needs pool, the number of candidates "
+                             f"normalised together (an integer >= 2), got {pool!r}")
+        if normalization == "potential" and pool is not None:
+            raise ValueError("pool is only used with normalization='batch'")
+        self.normalization = normalization
+        self.pool = None if pool is None else int(pool)
+        self._candidates = None  # the normalised pool, drawn on first use
+        self.cursor = 0  # candidates of the pool served (or skipped) so far
+        self.skipped = 0  # candidates skipped: an interior control value at V0
         self.rng = _as_generator(seed)
         self.n_grf = (int(lo), int(hi))
         self.length_scale = (float(length_scale[0]), float(length_scale[1]))
@@ -83,24 +116,63 @@ class BoundedPotentialSpace(FunctionSpace):
 
     def params(self):
         """The generator parameters, as stored with a dataset."""
-        return {"n_grf": list(self.n_grf), "length_scale": list(self.length_scale),
-                "omega": self.omega, "margin": self.margin, "V0": V0, "L": 1.0}
+        params = {"n_grf": list(self.n_grf), "length_scale": list(self.length_scale),
+                  "omega": self.omega, "margin": self.margin, "V0": V0, "L": 1.0}
+        if self.normalization == "batch":  # stored only when not Algorithm 1's default
+            params.update(normalization="batch", pool=self.pool)
+        return params
 
-    def _draw_one(self):
+    def state(self):
+        """Where the stream of potentials stands, as JSON-able data (for a resume)."""
+        if self.normalization == "batch":
+            return {"cursor": self.cursor, "skipped": self.skipped}
+        return {"rng": self.rng.bit_generator.state}
+
+    def set_state(self, state):
+        """Continue the stream from a :meth:`state` of a space built with the same seed."""
+        if self.normalization == "batch":
+            self.cursor, self.skipped = int(state["cursor"]), int(state["skipped"])
+        else:
+            self.rng.bit_generator.state = state["rng"]
+
+    def _draw_raw(self):
         rng = self.rng
         n = int(rng.integers(self.n_grf[0], self.n_grf[1] + 1))
         ell = rng.uniform(*self.length_scale)
         y = np.arange(1, n + 1) / (n + 1)
         cov = np.exp(-((y[:, None] - y[None, :]) ** 2) / (2 * ell**2)) + 1e-12 * np.eye(n)
         x = np.linalg.cholesky(cov) @ rng.standard_normal(n)
-        u = (x - x.min()) / (x.max() - x.min())
-        values = V0 - 2 * V0 * (self.margin + (1 - self.margin) * u)
         i = np.arange(1, n + 1)
         low = (i - 1) / n + self.omega / 2
         high = i / n - self.omega / 2
         low[0] = self.omega
         high[-1] = 1 - self.omega
         qs = rng.uniform(low, high)
+        return n, ell, x, qs
+
+    def _draw_pool(self):
+        raws = [self._draw_raw() for _ in range(self.pool)]
+        lo = min(r[2].min() for r in raws)
+        hi = max(r[2].max() for r in raws)
+        # the reference code: V = V0 - 2 V0 (X - min) / (max - min) over the whole pool
+        return [(n, ell, qs, V0 - 2 * V0 * (x - lo) / (hi - lo)) for n, ell, x, qs in raws]
+
+    def _draw_one(self):
+        if self.normalization == "batch":
+            if self._candidates is None:
+                self._candidates = self._draw_pool()
+            while True:
+                if self.cursor >= self.pool:
+                    raise ValueError(f"the pool of {self.pool} candidates is used up; draw "
+                                     "a larger pool (normalization='batch')")
+                n, ell, qs, values = self._candidates[self.cursor]
+                self.cursor += 1
+                if values.max() < V0:
+                    return n, ell, qs, values
+                self.skipped += 1
+        n, ell, x, qs = self._draw_raw()
+        u = (x - x.min()) / (x.max() - x.min())
+        values = V0 - 2 * V0 * (self.margin + (1 - self.margin) * u)
         return n, ell, qs, values
 
     def random_with_scales(self, size):

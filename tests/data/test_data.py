@@ -159,3 +159,76 @@ def test_presets_are_the_papers():
     assert PRESETS["extended"] == {"size": 100_000, "seed": 8407}
     assert PRESETS["test"] == {"size": 4_000, "seed": 42}
     assert issubclass(Dataset, object)
+
+
+# ------------------------------------------ the reference code's distribution (batch)
+
+
+def test_batch_normalisation_spans_the_pool_not_each_potential():
+    from nh_operators.potentials import BoundedPotentialSpace
+
+    space = BoundedPotentialSpace(seed=3, normalization="batch", pool=400)
+    feats = space.random(399)
+    assert space.cursor == 400 and space.skipped == 1  # the pool's minimum maps to V0
+    values = feats[:, 8:][np.isfinite(feats[:, 8:])]
+    assert values.min() == -2.0 and values.max() < 2.0  # -V0 is reached once, in the pool
+    spans = np.nanmax(feats[:, 8:], axis=1) - np.nanmin(feats[:, 8:], axis=1)
+    assert np.median(spans) < 2.0  # per-potential normalisation would give 3.8 every time
+    with pytest.raises(ValueError, match="the pool of 400 candidates is used up"):
+        space.random(1)
+
+
+def test_paper_test_recipe_matches_the_reference_codes_statistics():
+    # measured on the reference code's test set (DESIGN §5): interior control values of
+    # mean ≈ 0.11 and std ≈ 0.49
+    from nh_operators.potentials import BoundedPotentialSpace
+
+    space = BoundedPotentialSpace(np.random.default_rng(42), normalization="batch", pool=6250)
+    values = space.random(5000)[1000:, 8:]
+    values = values[np.isfinite(values)]
+    assert abs(values.mean() - 0.11) < 0.02 and abs(values.std() - 0.49) < 0.02
+
+
+def test_batch_datasets_are_reproducible_resume_and_skip(tmp_path, monkeypatch):
+    kwargs = dict(normalization="batch", pool=80)
+    whole = generate_dataset(40, seed=9, progress=False, **kwargs)
+    assert whole.attrs["generator"]["normalization"] == "batch"
+    assert whole.attrs["generator"]["pool"] == 80
+    chunked = generate_dataset(40, seed=9, path=tmp_path / "a.h5", chunk=7, progress=False,
+                               **kwargs)
+    np.testing.assert_array_equal(chunked.q, whole.q)
+    # the last 30 of 40 (the paper's test set is the last 4,000 of 5,000)
+    tail = generate_dataset(30, seed=9, skip=10, progress=False, **kwargs)
+    np.testing.assert_array_equal(tail.V, whole.V[10:])
+    # an interrupted batch run resumes from its cursor to the same bytes
+    import nh_operators.data.generate as generate_module
+
+    original, calls = generate_module._Source.take, {"n": 0}
+
+    def flaky(self, n, drops=None):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return original(self, n, drops)
+
+    monkeypatch.setattr(generate_module._Source, "take", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        generate_dataset(30, seed=9, skip=10, path=tmp_path / "r.h5", chunk=10,
+                         progress=False, **kwargs)
+    monkeypatch.setattr(generate_module._Source, "take", original)
+    resumed = generate_dataset(30, seed=9, skip=10, path=tmp_path / "r.h5", chunk=10,
+                               progress=False, **kwargs)
+    np.testing.assert_array_equal(resumed.V, whole.V[10:])
+
+
+def test_paper_presets_and_their_default_pool():
+    from nh_operators.data import preset_kwargs
+
+    assert preset_kwargs("paper-standard") == {"normalization": "batch", "pool": 12_500}
+    assert preset_kwargs("paper-test") == {"normalization": "batch", "pool": 6_250,
+                                           "skip": 1_000}
+    assert PRESETS["standard"] is PRESETS["alg1-standard"]
+    ds = generate_dataset(8, seed=1, normalization="batch", progress=False)
+    assert ds.attrs["generator"]["pool"] == 10  # 1.25 n, as the reference code draws
+    with pytest.raises(ValueError, match="pool is only used with normalization='batch'"):
+        generate_dataset(8, seed=1, pool=10, progress=False)
