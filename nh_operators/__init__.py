@@ -8,110 +8,33 @@ The package is laid out in wings, one per role, each importing only the wings be
 :mod:`~nh_operators.cli`. This module is the curated API: the names a user reaches for
 first, re-exported from their wings.
 
-Importing the package selects DeepXDE's PyTorch backend when none is chosen (quietly,
-without writing a config file in the home folder).
+Importing the package is cheap: it selects DeepXDE's PyTorch backend through the
+environment (without importing DeepXDE or writing a config file in the home folder), and
+each wing loads when a name from it is first used, so a classical solve never loads torch.
 """
 
-from ._backend import ensure_pytorch_backend as _ensure_pytorch_backend
+from ._backend import ensure_pytorch_backend as _ensure_pytorch_backend  # noqa: F401
+from ._backend import select_pytorch_backend as _select_pytorch_backend
 
-_ensure_pytorch_backend()
+_select_pytorch_backend()
 
 from ._constants import SENSORS, TIMES, V0  # noqa: E402
+from ._lazy import attach as _attach  # noqa: E402
 from ._version import __version__  # noqa: E402
-from .data import OperatorData, generate_dataset, load_dataset  # noqa: E402
-from .evaluation import (  # noqa: E402
-    CLASSICAL_METHODS,
-    ClassicalMethod,
-    EvaluationSettings,
-    NeuralMethod,
-    evaluate_methods,
-    extreme_potentials,
-)
-from .models import MODELS, build_model, count_parameters, predict  # noqa: E402
-from .potentials import (  # noqa: E402
-    PHYSICAL_POTENTIALS,
-    AnalyticPotential,
-    BoundedPotential,
-    BoundedPotentialSpace,
-    ExtendedPotential,
-    OutOfDomainWarning,
-    check_bounded,
-    domain_violations,
-    extend_monotone,
-    parse_potential,
-)
-from .solvers import (  # noqa: E402
-    METHODS,
-    ResolutionWarning,
-    integrate,
-    integrate_sensors,
-    paper_rk4,
-    reference_solve,
-    solve_classical,
-)
-from .solving import DEFAULT_TOL, Solution, available_pretrained, pretrained, solve  # noqa: E402
-from .training import (  # noqa: E402
-    ExpHyperbolicLR,
-    HyperbolicLR,
-    TrainConfig,
-    TrainingDiverged,
-    adjusted_infimum_lr,
-    load_model,
-    train,
-)
 
-__all__ = [
-    "__version__",
-    "V0",
-    "SENSORS",
-    "TIMES",
-    # potentials
-    "AnalyticPotential",
-    "BoundedPotential",
-    "BoundedPotentialSpace",
-    "PHYSICAL_POTENTIALS",
-    "check_bounded",
-    "parse_potential",
-    "extend_monotone",
-    "ExtendedPotential",
-    "OutOfDomainWarning",
-    "domain_violations",
-    # models
-    "MODELS",
-    "build_model",
-    "count_parameters",
-    "predict",
-    # solvers
-    "METHODS",
-    "integrate",
-    "integrate_sensors",
-    "paper_rk4",
-    "reference_solve",
-    "solve_classical",
-    "ResolutionWarning",
-    # data
-    "OperatorData",
-    "generate_dataset",
-    "load_dataset",
-    # training
-    "ExpHyperbolicLR",
-    "HyperbolicLR",
-    "adjusted_infimum_lr",
-    "TrainConfig",
-    "TrainingDiverged",
-    "train",
-    "load_model",
-    # evaluation
-    "CLASSICAL_METHODS",
-    "ClassicalMethod",
-    "NeuralMethod",
-    "EvaluationSettings",
-    "evaluate_methods",
-    "extreme_potentials",
-    # solve
-    "available_pretrained",
-    "pretrained",
-    "solve",
-    "Solution",
-    "DEFAULT_TOL",
-]
+__getattr__, __dir__, _names = _attach(__name__, {
+    "data": ["OperatorData", "generate_dataset", "load_dataset"],
+    "evaluation": ["CLASSICAL_METHODS", "ClassicalMethod", "EvaluationSettings",
+                   "NeuralMethod", "evaluate_methods", "extreme_potentials"],
+    "models": ["MODELS", "build_model", "count_parameters", "predict"],
+    "potentials": ["PHYSICAL_POTENTIALS", "AnalyticPotential", "BoundedPotential",
+                   "BoundedPotentialSpace", "ExtendedPotential", "OutOfDomainWarning",
+                   "check_bounded", "domain_violations", "extend_monotone", "parse_potential"],
+    "solvers": ["METHODS", "ResolutionWarning", "integrate", "integrate_sensors", "paper_rk4",
+                "reference_solve", "solve_classical"],
+    "solving": ["DEFAULT_TOL", "ManySolution", "Solution", "available_pretrained",
+                "pretrained", "solve", "solve_many"],
+    "training": ["ExpHyperbolicLR", "HyperbolicLR", "TrainConfig", "TrainingDiverged",
+                 "adjusted_infimum_lr", "load_model", "train"],
+})
+__all__ = ["__version__", "V0", "SENSORS", "TIMES", *_names]

@@ -103,7 +103,7 @@ def import_graph(root, package="nh_operators"):
 def wing_of(module, package="nh_operators"):
     """The wing a module belongs to, ``None`` for a root helper, ``""`` for the package."""
     parts = module.split(".")[1:]
-    if not parts:
+    if not parts or parts == ["__main__"]:  # the package itself and ``python -m`` are on top
         return ""
     return parts[0] if len(parts) > 1 or not parts[0].startswith("_") else None
 

@@ -6,6 +6,36 @@ import os
 import sys
 
 
+def select_pytorch_backend():
+    """Choose DeepXDE's PyTorch backend without importing anything (run at package import).
+
+    Sets ``DDE_BACKEND=pytorch`` when no backend is chosen, so that deepxde, imported
+    later by us or by the user, neither searches for a backend nor writes
+    ``~/.deepxde/config.json``.
+
+    Raises:
+        ImportError: if ``DDE_BACKEND`` names another backend, or deepxde was already
+            imported with another backend.
+    """
+    chosen = os.environ.get("DDE_BACKEND", os.environ.get("DDEBACKEND"))
+    deepxde = sys.modules.get("deepxde")
+    if deepxde is not None:
+        name = deepxde.backend.backend_name
+        if name != "pytorch":
+            raise ImportError(
+                f"deepxde was already imported with the {name!r} backend; nh_operators "
+                "needs 'pytorch'. Set DDE_BACKEND=pytorch before importing deepxde."
+            )
+        return
+    if chosen is None:
+        os.environ["DDE_BACKEND"] = "pytorch"
+    elif chosen.lower() != "pytorch":
+        raise ImportError(
+            f"DDE_BACKEND={chosen!r} selects another DeepXDE backend; nh_operators needs "
+            "'pytorch'. Unset DDE_BACKEND or set it to 'pytorch'."
+        )
+
+
 def ensure_pytorch_backend():
     """Import deepxde with its PyTorch backend and return the module.
 
@@ -20,24 +50,9 @@ def ensure_pytorch_backend():
         ImportError: if ``DDE_BACKEND`` names another backend, or deepxde was already
             imported with another backend.
     """
-    chosen = os.environ.get("DDE_BACKEND", os.environ.get("DDEBACKEND"))
+    select_pytorch_backend()
     if "deepxde" in sys.modules:
-        import deepxde
-
-        name = deepxde.backend.backend_name
-        if name != "pytorch":
-            raise ImportError(
-                f"deepxde was already imported with the {name!r} backend; nh_operators "
-                "needs 'pytorch'. Set DDE_BACKEND=pytorch before importing deepxde."
-            )
-        return deepxde
-    if chosen is None:
-        os.environ["DDE_BACKEND"] = "pytorch"
-    elif chosen.lower() != "pytorch":
-        raise ImportError(
-            f"DDE_BACKEND={chosen!r} selects another DeepXDE backend; nh_operators needs "
-            "'pytorch'. Unset DDE_BACKEND or set it to 'pytorch'."
-        )
+        return sys.modules["deepxde"]
     import torch
 
     device = torch.get_default_device()
@@ -62,13 +77,15 @@ def single_threaded():
     training run was going.
     """
     import numba
-    import torch
 
-    n_torch, n_numba = torch.get_num_threads(), numba.get_num_threads()
-    torch.set_num_threads(1)
+    torch = sys.modules.get("torch")  # not imported: nothing of torch's runs in the block
+    n_torch, n_numba = (torch.get_num_threads() if torch else None), numba.get_num_threads()
+    if torch:
+        torch.set_num_threads(1)
     numba.set_num_threads(1)
     try:
         yield
     finally:
-        torch.set_num_threads(n_torch)
+        if torch:
+            torch.set_num_threads(n_torch)
         numba.set_num_threads(n_numba)

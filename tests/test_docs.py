@@ -124,8 +124,9 @@ def test_api_pages_name_only_objects_that_exist():
         assert obj is not None, name
 
 
-@pytest.mark.parametrize("page", ["install", "quickstart", "problem", "architectures", "architecture",
-                                  "training", "speed_accuracy", "extending", "api",
+@pytest.mark.parametrize("page", ["install", "quickstart", "problem", "distributions",
+                                  "architectures", "architecture",
+                                  "training", "training_at_scale", "speed_accuracy", "extending", "api",
                                   "numerics", "models", "evaluation", "solve", "pretrained",
                                   "auto_examples/index"])
 def test_index_toctree_lists_every_page(page):

@@ -2,6 +2,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 
 def _run(code, tmp_path, **env):
     base = {k: v for k, v in os.environ.items() if k not in ("DDE_BACKEND", "DDEBACKEND")}
@@ -10,7 +12,10 @@ def _run(code, tmp_path, **env):
 
 
 def test_import_selects_pytorch_quietly_and_writes_nothing_at_home(tmp_path):
-    res = _run("import nh_operators, deepxde; print(deepxde.backend.backend_name)", tmp_path)
+    # the package selects the backend; deepxde is loaded (quietly) by the first name that
+    # needs it, here BoundedPotentialSpace, a DeepXDE function space
+    res = _run("import nh_operators; nh_operators.BoundedPotentialSpace; import deepxde; "
+               "print(deepxde.backend.backend_name)", tmp_path)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "pytorch"
     assert res.stderr == ""
@@ -44,3 +49,42 @@ def test_public_names_are_exported():
 
     for name in nh_operators.__all__:
         assert hasattr(nh_operators, name), name
+
+
+_HEAVY = ("torch", "deepxde", "numba", "matplotlib", "h5py")
+
+
+def test_import_loads_no_heavy_library(tmp_path):
+    res = _run("import sys, nh_operators; print(sorted(m for m in " + repr(_HEAVY)
+               + " if m in sys.modules))", tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "[]"
+
+
+def test_a_classical_solve_never_loads_torch_or_deepxde(tmp_path):
+    code = ("import sys, nh_operators as nh\n"
+            "s = nh.solve('8*(q-0.5)**2', [0.5, 1.5], tol=1e-8)\n"
+            "s2 = nh.solve(nh.PHYSICAL_POTENTIALS['sho'].V(nh.SENSORS), [0.5], tol=1e-6)\n"
+            "print(s.kind, s2.kind, [m for m in ('torch', 'deepxde') if m in sys.modules])")
+    res = _run(code, tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "classical classical []"
+
+
+def test_help_and_argument_errors_load_no_heavy_library(tmp_path):
+    code = ("import sys\nfrom nh_operators.cli import main\n"
+            "codes = [main(['--help']), main(['generate', '--chunk', '0'])]\n"
+            "print(codes, sorted(m for m in " + repr(_HEAVY) + " if m in sys.modules))")
+    res = _run(code, tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "[0, 2] []"
+
+
+def test_lazy_names_are_the_wings_objects_and_listed():
+    import nh_operators
+    from nh_operators import solvers
+
+    assert nh_operators.integrate is solvers.integrate
+    assert "solve_many" in dir(nh_operators) and "integrate" in dir(solvers)
+    with pytest.raises(AttributeError, match="has no attribute 'nope'"):
+        nh_operators.nope

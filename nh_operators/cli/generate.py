@@ -1,22 +1,66 @@
 """``nh-operators generate``: a labelled dataset in HDF5."""
 
+import sys
 import time
 
-from ..data import PRESETS, generate_dataset
+from ._options import nonnegative_int, positive_int
+
+#: The data wing's PRESETS, repeated here so that parsing and ``--help`` do not import
+#: the library (tests/cli checks that they agree).
+PRESETS = {
+    "alg1-standard": {"size": 10_000, "seed": 8407},
+    "alg1-extended": {"size": 100_000, "seed": 8407},
+    "alg1-test": {"size": 4_000, "seed": 42},
+    "paper-standard": {"size": 10_000, "seed": 8407, "normalization": "batch", "pool": 12_500},
+    "paper-extended": {"size": 100_000, "seed": 8407, "normalization": "batch",
+                       "pool": 125_000},
+    "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
+                   "skip": 1_000},
+}
+PRESETS["standard"] = PRESETS["alg1-standard"]
+PRESETS["extended"] = PRESETS["alg1-extended"]
+PRESETS["test"] = PRESETS["alg1-test"]
+
+
+def _plan(args):
+    """(size, seed, out, generator options) from a preset and/or flags; says when a flag
+    overrides a preset."""
+    if args.preset:
+        preset = dict(PRESETS[args.preset])
+        size, seed = preset.pop("size"), preset.pop("seed")
+        for flag, given, default in (("--size", args.size, size), ("--seed", args.seed, seed)):
+            if given is not None and given != default:
+                print(f"note: {flag} {given} overrides the {args.preset} preset's {default}",
+                      file=sys.stderr)
+        if args.size is not None and args.size != size:
+            preset.pop("pool", None)  # then 1.25 (size + skip) candidates, as the code draws
+        size = size if args.size is None else args.size
+        seed = seed if args.seed is None else args.seed
+        return size, seed, args.out or f"{args.preset}.h5", preset
+    missing = [f for f, v in (("--size", args.size), ("--seed", args.seed), ("--out", args.out))
+               if v is None]
+    if missing:
+        raise ValueError(f"give --preset, or all of --size, --seed and --out (missing: "
+                         f"{', '.join(missing)})")
+    return args.size, args.seed, args.out, {}
 
 
 def _generate(args):
-    if args.preset:
-        size, seed = PRESETS[args.preset]["size"], PRESETS[args.preset]["seed"]
-        size = args.size or size
-        seed = seed if args.seed is None else args.seed
-        out = args.out or f"{args.preset}.h5"
-    else:
-        if args.size is None or args.seed is None or args.out is None:
-            raise SystemExit("generate: give --preset, or all of --size, --seed and --out")
-        size, seed, out = args.size, args.seed, args.out
+    from ..data import check_output_path, generate_dataset
+
+    size, seed, out, options = _plan(args)
+    if args.normalization and args.normalization != options.get("normalization", "potential"):
+        if args.preset:
+            print(f"note: --normalization {args.normalization} overrides the {args.preset} "
+                  "preset's", file=sys.stderr)
+        options["normalization"] = args.normalization
+        if args.normalization == "potential":
+            options.pop("pool", None)
+    args.output = out  # for the message if interrupted
+    check_output_path(out, force=args.force)  # before any work
     start = time.perf_counter()
-    ds = generate_dataset(size, seed, out, chunk=args.chunk, progress=not args.quiet)
+    ds = generate_dataset(size, seed, out, chunk=args.chunk, progress=not args.quiet,
+                          force=args.force, **options)
     seconds = time.perf_counter() - start
     dropped = ds.attrs.get("dropped", {})
     reasons = ", ".join(f"{k}: {v}" for k, v in dropped.items()) or "none"
@@ -24,13 +68,40 @@ def _generate(args):
           f"({reasons}), {seconds:.1f} s, checksum {ds.attrs['checksum']}")
 
 
+def _interrupted(args):
+    from ..data import partial_progress
+
+    out = getattr(args, "output", None)
+    done = partial_progress(out) if out else None
+    if not done:
+        return "nothing was written"
+    return (f"{done[0]} of {done[1]} potentials kept in {out}.partial; run the same command "
+            "again to resume")
+
+
 def register(sub):
     """Add this module's commands to the subparsers ``sub``."""
-    gen = sub.add_parser("generate", help="generate a labelled dataset (HDF5)")
-    gen.add_argument("--preset", choices=["standard", "extended", "test"])
-    gen.add_argument("--size", type=int, help="number of potentials")
-    gen.add_argument("--seed", type=int, help="generator seed")
-    gen.add_argument("--out", help="output .h5 file (default: PRESET.h5)")
-    gen.add_argument("--chunk", type=int, default=2000, help="potentials per labelled chunk")
+    gen = sub.add_parser(
+        "generate", help="generate a labelled dataset (HDF5)",
+        description="Generate a labelled dataset. Give --preset NAME, or all three of --size, "
+                    "--seed and --out. Presets alg1-standard, alg1-extended, alg1-test (also "
+                    "called standard, extended, test) follow Algorithm 1 as printed; "
+                    "paper-standard, paper-extended, paper-test follow the reference code "
+                    "that made the paper's tables (--normalization batch). An interrupted "
+                    "run resumes when run again; a finished file is replaced only with --force.")
+    gen.add_argument("--preset", choices=list(PRESETS),
+                     help="a named dataset of the paper (then --size/--seed override it)")
+    gen.add_argument("--size", type=positive_int,
+                     help="number of potentials (required without --preset)")
+    gen.add_argument("--seed", type=nonnegative_int,
+                     help="generator seed, an integer ≥ 0 (required without --preset)")
+    gen.add_argument("--out", help="output .h5 file (required without --preset; default: "
+                                   "PRESET.h5)")
+    gen.add_argument("--normalization", choices=["potential", "batch"],
+                     help="potential: Algorithm 1 as printed (default); batch: the reference "
+                          "code, 1.25 n candidates normalised together")
+    gen.add_argument("--chunk", type=positive_int, default=2000,
+                     help="potentials per labelled chunk (default 2000)")
+    gen.add_argument("--force", action="store_true", help="replace a finished file at --out")
     gen.add_argument("--quiet", action="store_true", help="no progress bar")
-    gen.set_defaults(run=_generate)
+    gen.set_defaults(run=_generate, interrupted=_interrupted)

@@ -1,26 +1,23 @@
-"""``nh-operators predict`` and ``demo``: trajectories of typed and physical potentials."""
+"""``nh-operators predict`` and ``demo``: trajectories of typed and physical potentials.
+
+The library is imported inside the commands, so that ``--help`` and argument errors load
+neither torch nor numba.
+"""
 
 import os
 import warnings
 
-import numpy as np
-
-from .._constants import TIMES
-from .._metrics import loss_per_sample
-from ..evaluation import (
-    CLASSICAL_BASELINES,
-    classical_physical_table,
-    physical_reference,
-    plot_physical_potentials,
-    plot_trajectory,
-    save_figure,
-)
-from ..potentials import PHYSICAL_POTENTIALS, as_potential
-from ..solvers import solve_classical
-from ..solving import available_pretrained, pretrained, solve
+from ._options import figure_file, positive_float, positive_int
 
 
 def _demo(args):
+    from .._constants import TIMES
+    from ..evaluation import (CLASSICAL_BASELINES, classical_physical_table,
+                              physical_reference, plot_physical_potentials, plot_trajectory,
+                              save_figure)
+    from ..potentials import PHYSICAL_POTENTIALS
+    from ..solving import available_pretrained, pretrained, solve
+
     os.makedirs(args.out, exist_ok=True)
     networks = {name: pretrained(name) for name in available_pretrained()}
     with warnings.catch_warnings(record=True) as caught:
@@ -56,16 +53,27 @@ def _demo(args):
 
 
 def _predict(args):
+    import numpy as np
+
+    from .._constants import TIMES
+    from .._metrics import loss_per_sample
+    from ..evaluation import plot_trajectory, save_figure
+    from ..potentials import as_potential
+    from ..solvers import solve_classical
+    from ..solving import solve
+
     times = TIMES if args.times is None else np.asarray(args.times, dtype=np.float64)
     pot, _ = as_potential(args.potential)  # safe parse and the bounded checks
-    sol = solve(pot, times, tol=args.tol, method=args.model)
-    ref = solve_classical(pot, times, tol=1e-12, method="yoshida8")
+    state = dict(q0=args.q0, p0=args.p0)
+    sol = solve(pot, times, tol=args.tol, method=args.model, **state)
+    ref_tol = 1e-12 if times.max() <= 2 else 1e-10  # far times: the period's phase bound
+    ref = solve_classical(pot, times, tol=ref_tol, method="yoshida8", **state)
     true = float(loss_per_sample(sol.q, sol.p, ref.q, ref.p)["L_tot"])
     formula = getattr(pot, "formula", args.potential)
     print(f"V(q) = {formula}")
     print(f"method: {sol.method} ({sol.kind}; {sol.reason}), {1e3 * sol.seconds:.2f} ms")
     print(f"estimated L_tot {sol.error_estimate:.3g}; L_tot against a Yoshida-8 solve at "
-          f"1e-12: {true:.3g}" + ("" if args.tol is None else f"; tol {args.tol:g}"))
+          f"{ref_tol:g}: {true:.3g}" + ("" if args.tol is None else f"; tol {args.tol:g}"))
     rows = np.arange(times.size)
     if rows.size > args.rows:
         rows = np.unique(np.linspace(0, times.size - 1, args.rows).round().astype(int))
@@ -82,6 +90,32 @@ def _predict(args):
 
         save_figure(fig, args.out)
         print(f"figure: {args.out}")
+        _orbit_figure(pot, formula, times, sol, ref, args)
+
+
+def _orbit_figure(pot, formula, times, sol, ref, args):
+    """The whole orbit in the phase plane, the asked times marked: FILE_orbit.EXT."""
+    import numpy as np
+
+    from ..evaluation import save_figure
+    from ..evaluation.orbit_plot import plot_orbit
+    from ..solvers import solve_classical
+    from ..solvers.periodic import orbit_periods
+    from ..solvers.rows import row_source
+
+    out, status = orbit_periods(row_source(pot, "exact V"), np.array([0]),
+                                np.array([args.q0]), np.array([args.p0]))
+    period = float(out[0, 0]) if status[0] == 0 and out[0, 1] < 1e-6 * out[0, 0] else None
+    span = period if period else max(float(times.max()), 1e-3)
+    orbit = solve_classical(pot, np.linspace(0.0, span, 400), tol=1e-10, q0=args.q0,
+                            p0=args.p0)
+    stem, ext = os.path.splitext(args.out)
+    path = f"{stem}_orbit{ext or '.png'}"
+    what = f"period T = {period:.6g}" if period else f"t ∈ [0, {span:g}]"
+    save_figure(plot_orbit(orbit.q, orbit.p, times, sol.q, sol.p,
+                           title=f"V(q) = {formula}: orbit from ({args.q0:g}, {args.p0:g}), "
+                           f"{what}"), path)
+    print(f"figure: {path}")
 
 
 def register(sub):
@@ -97,7 +131,12 @@ def register(sub):
                     "integrator, or a shipped model (deeponet, traonet, ...)")
     pr.add_argument("--times", type=float, nargs="+", help="query times (default: the "
                     "100-point grid on [0, 2])")
-    pr.add_argument("--tol", type=float, help="target L_tot (auto picks the method)")
-    pr.add_argument("--rows", type=int, default=20, help="table rows at most (default 20)")
-    pr.add_argument("--out", help="figure file (.png, .pdf, .svg)")
+    pr.add_argument("--tol", type=positive_float, help="target L_tot (auto picks the method)")
+    pr.add_argument("--q0", type=float, default=0.0, help="starting position in [0, 1] "
+                    "(default 0)")
+    pr.add_argument("--p0", type=float, default=0.0, help="starting momentum (default 0); "
+                    "the energy p0²/2 + V(q0) must be at most V0 = 2")
+    pr.add_argument("--rows", type=positive_int, default=20, help="table rows at most (default 20)")
+    pr.add_argument("--out", type=figure_file, help="figure file; its suffix names the format "
+                    "(.png, .pdf, .svg, ...)")
     pr.set_defaults(run=_predict)

@@ -1,19 +1,13 @@
 """``nh-operators train`` and ``tune``: DeepXDE's loop, and Optuna studies over it."""
 
 import ast
+import os
 
-import optuna
-import torch
+from ._options import existing_file, finite_float, nonnegative_int, positive_float, positive_int
 
-from ..models import MODELS, count_parameters
-from ..training import (
-    TrainConfig,
-    best_config,
-    study_name,
-    train,
-    tune,
-    tuned_train_kwargs,
-)
+#: The networks' names (the models wing's MODELS, repeated here so that parsing and
+#: ``--help`` do not import torch; tests/cli checks that they agree).
+MODEL_NAMES = ("deeponet", "fno", "mambonet", "traonet", "varonet")
 
 
 def _arch_overrides(items):
@@ -30,6 +24,11 @@ def _arch_overrides(items):
 
 
 def _train(args):
+    from ..data import dataset_attrs
+    from ..models import count_parameters
+    from ..training import TrainConfig, train, tuned_train_kwargs
+
+    dataset_attrs(args.data)  # a clear error now for a file that is not a dataset
     tuned = tuned_train_kwargs(  # --config FILE, explicit flags on top
         args.config, model=args.model, preset=args.preset, arch=_arch_overrides(args.arch),
         lr=args.lr, upper_bound=args.upper_bound, infimum_lr=args.infimum_lr, beta=args.beta)
@@ -38,7 +37,9 @@ def _train(args):
                          dtype=args.dtype, device=args.device, amp=args.amp)
     net, history = train(config, args.data, args.out, resume=args.resume,
                          progress=not args.quiet, max_minutes=args.max_minutes,
-                         stop_after=args.stop_after)
+                         stop_after=args.stop_after, max_rows=args.max_rows)
+    if os.environ.get("RANK", "0") != "0":
+        return  # under torchrun, rank 0 reports
     last = history[-1]
     print(f"{config.model} ({config.preset}, {count_parameters(net)} parameters): "
           f"{last['epoch']} epochs in {last['seconds'] / 60:.1f} min, train loss "
@@ -46,7 +47,23 @@ def _train(args):
           f"run directory {args.out}")
 
 
+def _interrupted(args):
+    from ..training import read_history
+
+    try:
+        epoch = int(read_history(args.out)["epoch"][-1])
+    except (OSError, ValueError, KeyError):
+        return f"no epoch finished; nothing kept in {args.out}"
+    return (f"the checkpoint of epoch {epoch} is kept in {args.out}; add --resume to the "
+            "same command to continue")
+
+
 def _tune(args):
+    import optuna
+    import torch
+
+    from ..training import best_config, study_name, tune, tuned_train_kwargs
+
     optuna.logging.set_verbosity(optuna.logging.WARNING)  # tune prints a line per trial
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -72,49 +89,53 @@ def _tune(args):
 def register(sub):
     """Add this module's commands to the subparsers ``sub``."""
     tr = sub.add_parser("train", help="train a network in DeepXDE's loop")
-    tr.add_argument("--model", choices=list(MODELS), help="the network (or from --config)")
+    tr.add_argument("--model", choices=MODEL_NAMES, help="the network (or from --config)")
     tr.add_argument("--config", metavar="FILE.json", help="tuned values (nh-operators "
                     "tune --out): arch, lr, upper bound, infimum, beta; flags win")
     tr.add_argument("--preset", choices=["paper", "cpu"],
                     help="architecture preset (default: the config's, else cpu)")
-    tr.add_argument("--data", required=True, help="dataset .h5 (nh-operators generate)")
-    tr.add_argument("--epochs", type=int, default=10)
-    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--data", required=True, type=existing_file,
+                    help="dataset .h5 (nh-operators generate)")
+    tr.add_argument("--epochs", type=positive_int, default=10)
+    tr.add_argument("--seed", type=nonnegative_int, default=0)
     tr.add_argument("--out", required=True, help="run directory")
     tr.add_argument("--resume", action="store_true", help="continue a killed run in --out")
-    tr.add_argument("--max-minutes", type=float,
+    tr.add_argument("--max-minutes", type=positive_float,
                     help="wall-time budget over the whole run; stops after the epoch "
                          "that passes it (checkpoint kept, --resume continues)")
-    tr.add_argument("--stop-after", type=int, metavar="EPOCH",
+    tr.add_argument("--stop-after", type=positive_int, metavar="EPOCH",
                     help="stop after this epoch of the --epochs schedule (reproduces a "
                          "run that --max-minutes cut)")
     tr.add_argument("--arch", action="append", metavar="KEY=VALUE",
                     help="architecture override, repeatable (e.g. --arch d_model=64)")
-    tr.add_argument("--batch-size", type=int, default=100)
-    tr.add_argument("--lr", type=float, help="initial learning rate (default: paper's)")
-    tr.add_argument("--upper-bound", type=float, help="schedule upper bound U")
-    tr.add_argument("--infimum-lr", type=float, help="schedule infimum")
-    tr.add_argument("--beta", type=float, help="KL weight (VaRONet)")
+    tr.add_argument("--batch-size", type=positive_int, default=100)
+    tr.add_argument("--lr", type=positive_float, help="initial learning rate (default: paper's)")
+    tr.add_argument("--upper-bound", type=positive_float, help="schedule upper bound U")
+    tr.add_argument("--infimum-lr", type=positive_float, help="schedule infimum")
+    tr.add_argument("--beta", type=finite_float, help="KL weight (VaRONet)")
     tr.add_argument("--scheduler", default="exphyperbolic",
                     choices=["exphyperbolic", "hyperbolic", "constant"])
     tr.add_argument("--dtype", default="float32", choices=["float32", "float64"])
     tr.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
     tr.add_argument("--amp", action="store_true", help="float16 autocast (CUDA only)")
     tr.add_argument("--quiet", action="store_true", help="no progress bar")
-    tr.set_defaults(run=_train)
+    tr.add_argument("--max-rows", type=positive_int, metavar="ROWS",
+                    help="most training rows a process holds at once (default: its "
+                         "share of an epoch); smaller reads each epoch in several passes")
+    tr.set_defaults(run=_train, interrupted=_interrupted)
     tu = sub.add_parser("tune", help="tune with Optuna: stage grid (architecture) or tpe "
                         "(lr, upper bound, infimum, beta); workers may share a study")
-    tu.add_argument("--model", choices=list(MODELS), help="the network (or from --config)")
+    tu.add_argument("--model", choices=MODEL_NAMES, help="the network (or from --config)")
     tu.add_argument("--stage", required=True, choices=["grid", "tpe"])
-    tu.add_argument("--data", required=True, help="dataset .h5 (validation part scores)")
-    tu.add_argument("--trials", type=int, help="trials of this worker (default: the "
+    tu.add_argument("--data", required=True, type=existing_file, help="dataset .h5 (validation part scores)")
+    tu.add_argument("--trials", type=positive_int, help="trials of this worker (default: the "
                     "rest of the grid; tpe needs --trials or --timeout)")
-    tu.add_argument("--timeout", type=float, metavar="MINUTES", help="start no trial after")
+    tu.add_argument("--timeout", type=positive_float, metavar="MINUTES", help="start no trial after")
     tu.add_argument("--storage", default="sqlite:///tune.db", help="Optuna RDB URL")
     tu.add_argument("--study", help="study name (default: MODEL-STAGE-SPACE)")
     tu.add_argument("--space", default="cpu", help="search space: cpu, paper or FILE.json")
-    tu.add_argument("--epochs", type=int, help="epochs per run (default: the space's)")
-    tu.add_argument("--seeds", type=int, help="runs per trial, averaged (default: space's)")
+    tu.add_argument("--epochs", type=positive_int, help="epochs per run (default: the space's)")
+    tu.add_argument("--seeds", type=positive_int, help="runs per trial, averaged (default: space's)")
     tu.add_argument("--config", metavar="FILE.json", help="start from these values (the "
                     "grid stage's best for tpe)")
     tu.add_argument("--arch", action="append", metavar="KEY=VALUE", help="architecture "
@@ -122,6 +143,6 @@ def register(sub):
     tu.add_argument("--out", help="best configuration, JSON (default: STUDY.json)")
     tu.add_argument("--workdir", help="keep run directories here (default: temporary)")
     tu.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
-    tu.add_argument("--threads", type=int, help="torch threads of this worker (CPU: cores "
+    tu.add_argument("--threads", type=positive_int, help="torch threads of this worker (CPU: cores "
                     "left free / workers; 1 on a busy machine)")
     tu.set_defaults(run=_tune)

@@ -4,14 +4,13 @@ Generation in checksummed HDF5 chunks that resume, loading, and the operator dat
 that DeepXDE's training loop consumes. Imports the solvers, potentials and models.
 """
 
-from .generate import PRESETS, Dataset, generate_dataset, label_potentials, load_dataset
-from .operator_data import OperatorData
+from .._lazy import attach
 
-__all__ = [
-    "PRESETS",
-    "Dataset",
-    "generate_dataset",
-    "label_potentials",
-    "load_dataset",
-    "OperatorData",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_h5": ["dataset_attrs", "partial_progress"],
+    "generate": ["PRESETS", "Dataset", "check_output_path", "generate_dataset",
+                 "label_potentials", "load_dataset", "preset_kwargs"],
+    "operator_data": ["OperatorData"],
+    "rows": ["H5Rows", "MemoryRows", "Rows", "open_rows", "split_indices"],
+    "shards": ["ShardedOperatorData", "check_global_batch", "shard_bounds"],
+})

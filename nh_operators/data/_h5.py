@@ -3,12 +3,14 @@
 import hashlib
 import json
 import os
+import warnings
 
 import h5py
 import numpy as np
 from tqdm.auto import tqdm
 
 from .._constants import SENSORS, TIMES
+from ._lock import exclusive_lock
 
 FORMAT = "nh-operators-dataset/1"
 #: Per-sample arrays (leading axis N) and their trailing shapes and dtypes.
@@ -63,29 +65,64 @@ def _matches(f, attrs):
     return all(stored.get(k) == v for k, v in attrs.items() if k != "version")
 
 
+def _chunk_digest(f, start, end):
+    """SHA-256 of rows [start, end) of every per-sample array (what a resume keeps)."""
+    digest = hashlib.sha256()
+    for name in ROWS:
+        digest.update(np.ascontiguousarray(f[name][start:end]).tobytes())
+    return digest.hexdigest()
+
+
+def _verified_prefix(f, path):
+    """Rows, drops and generator state after the last chunk whose checksum still holds.
+
+    Returns None when no chunk survives (start again). Warns for a chunk that fails.
+    """
+    chunks = json.loads(f.attrs.get("chunks", "[]"))
+    kept = None
+    start = 0
+    for chunk in chunks:
+        if _chunk_digest(f, start, chunk["end"]) != chunk["sha256"]:
+            warnings.warn(f"{path}: rows {start}-{chunk['end'] - 1} no longer match the "
+                          "checksum recorded when they were written; labelling them again "
+                          f"from row {start}", UserWarning, stacklevel=4)
+            break
+        kept, start = chunk, chunk["end"]
+    return kept, chunks[:chunks.index(kept) + 1] if kept else []
+
+
 def write_streamed(path, n, attrs, source, *, chunk, progress, resume):
     """Write n samples from ``source.take`` to ``path`` through ``path + '.partial'``.
 
-    After every chunk the partial file records the rows written, the drop counts and
-    the generator state, so an interrupted run continues where it stopped.
+    A lock file (``path + '.lock'``) is taken before anything is opened, so a second
+    run on the same path fails at once and leaves the first untouched. After every chunk
+    the partial file records the rows written, the drop counts, the generator state and
+    a SHA-256 of the chunk's rows; a resumed run checks every kept chunk against it and
+    labels again from the first chunk that no longer matches (with a warning).
     """
     path = os.fspath(path)
     partial = path + ".partial"
-    rng = source.space.rng
-    done = 0
-    drops = {}
+    with exclusive_lock(path + ".lock", what=path):
+        _write_locked(path, partial, n, attrs, source, chunk, progress, resume)
+
+
+def _write_locked(path, partial, n, attrs, source, chunk, progress, resume):
+    start_state = json.loads(json.dumps(source.state()))
+    done, drops, chunks = 0, {}, []
     mode = "w"
     if resume and os.path.exists(partial):
         try:
-            with h5py.File(partial, "r") as f:
-                if _matches(f, attrs):
-                    done = int(f.attrs["rows_done"])
-                    drops = json.loads(f.attrs["dropped"])
-                    rng.bit_generator.state = json.loads(f.attrs["rng_state"])
-                    mode = "r+"
+            with h5py.File(partial, "r+") as f:
+                if _matches(f, attrs) and int(f.attrs["rows_done"]) > 0:
+                    kept, chunks = _verified_prefix(f, partial)
+                    if kept is not None:
+                        done, drops = kept["end"], kept["dropped"]
+                        source.set_state(kept["state"])
+                        mode = "r+"
         except (OSError, KeyError, ValueError):
             mode = "w"  # unreadable or foreign partial file: start again
     if mode == "w":
+        source.set_state(start_state)
         with h5py.File(partial, "w") as f:
             for name, (shape, dtype) in ROWS.items():
                 f.create_dataset(name, shape=(n,) + shape, dtype=dtype, track_times=False,
@@ -101,14 +138,16 @@ def write_streamed(path, n, attrs, source, *, chunk, progress, resume):
             arrays, drops = source.take(m, drops)
             for name in ROWS:
                 f[name][done : done + m] = arrays[name]
+            chunks.append({"end": done + m, "sha256": _chunk_digest(f, done, done + m),
+                           "dropped": dict(drops), "state": source.state()})
             done += m
             f.attrs["rows_done"] = done
             f.attrs["dropped"] = json.dumps(drops, sort_keys=True)
-            f.attrs["rng_state"] = json.dumps(rng.bit_generator.state)
+            f.attrs["chunks"] = json.dumps(chunks)
             f.flush()
             bar.update(m)
             bar.set_postfix(dropped=sum(drops.values()))
-        for key in ("rows_done", "rng_state"):
+        for key in ("rows_done", "chunks"):
             del f.attrs[key]
         f.attrs["dropped"] = json.dumps(drops, sort_keys=True)
         f.attrs["n_dropped"] = int(sum(drops.values()))
@@ -116,15 +155,56 @@ def write_streamed(path, n, attrs, source, *, chunk, progress, resume):
     os.replace(partial, path)
 
 
-def read_dataset(path, *, verify=True):
-    """Read all arrays and attributes; check the format and (optionally) the checksum."""
+def partial_progress(path):
+    """(rows written, rows asked) of an interrupted run's ``path + '.partial'``, or None."""
+    try:
+        with h5py.File(os.fspath(path) + ".partial", "r") as f:
+            return int(f.attrs.get("rows_done", 0)), int(f.attrs.get("size", 0))
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def open_h5(path):
+    """Open a dataset file for reading, with a clear error for everything but a dataset.
+
+    Raises:
+        FileNotFoundError: if there is no file.
+        ValueError: for a directory, a file HDF5 cannot read (truncated, still being
+            written, not HDF5), or an HDF5 file that is not an nh-operators dataset.
+    """
     path = os.fspath(path)
     if not os.path.exists(path):
         raise FileNotFoundError(f"no dataset at {path!r}")
-    with h5py.File(path, "r") as f:
+    if os.path.isdir(path):
+        raise ValueError(f"{path!r} is a directory; give the dataset's .h5 file")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise ValueError(f"{path!r} is not a readable HDF5 file ({err}); it may be truncated "
+                         "or still being written: generate it again") from None
+    fmt = f.attrs.get("format")
+    fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
+    if fmt != FORMAT:
+        f.close()
+        raise ValueError(f"{path!r} is not an nh-operators dataset (format {fmt!r})")
+    return f
+
+
+def dataset_attrs(path):
+    """A dataset file's attributes (size, seed, generator, checksum, ...), read cheaply.
+
+    Raises:
+        FileNotFoundError, ValueError: as :func:`open_h5`.
+    """
+    with open_h5(path) as f:
+        return _get_attrs(f)
+
+
+def read_dataset(path, *, verify=True):
+    """Read all arrays and attributes; check the format and (optionally) the checksum."""
+    path = os.fspath(path)
+    with open_h5(path) as f:
         attrs = _get_attrs(f)
-        if attrs.get("format") != FORMAT:
-            raise ValueError(f"{path!r} is not an nh-operators dataset (format {attrs.get('format')!r})")
         missing = [k for k in FIXED + tuple(ROWS) if k not in f]
         if missing:
             raise ValueError(f"{path!r} lacks the arrays {missing}")

@@ -5,6 +5,8 @@ them with :func:`reference_solve` on the exact B-spline curve, drops and counts 
 samples, tops up to exactly n, and streams chunks to an HDF5 file (see :mod:`._h5`).
 """
 
+import os
+
 import numpy as np
 
 from .._constants import SENSORS, TIMES, V0
@@ -13,14 +15,39 @@ from ..potentials import BoundedPotential, BoundedPotentialSpace
 from ..solvers import reference_solve
 from ._h5 import read_dataset, write_streamed
 
-__all__ = ["PRESETS", "Dataset", "generate_dataset", "label_potentials", "load_dataset"]
+__all__ = ["PRESETS", "preset_kwargs", "Dataset", "generate_dataset", "label_potentials", "load_dataset",
+           "check_output_path"]
 
-#: Named datasets of the paper: size and seed.
+#: Named datasets: size, seed and generator options. ``alg1-*`` (also called
+#: ``standard``, ``extended``, ``test``): the paper's Algorithm 1 as printed, each
+#: potential normalised on its own. ``paper-*``: the distribution the paper's tables were
+#: made on, its reference code's (the GRF values of 1.25 n candidates normalised together;
+#: its test set is the last 4,000 of 5,000 drawn from 6,250 candidates). Same seeds.
 PRESETS = {
-    "standard": {"size": 10_000, "seed": 8407},
-    "extended": {"size": 100_000, "seed": 8407},
-    "test": {"size": 4_000, "seed": 42},
+    "alg1-standard": {"size": 10_000, "seed": 8407},
+    "alg1-extended": {"size": 100_000, "seed": 8407},
+    "alg1-test": {"size": 4_000, "seed": 42},
+    "paper-standard": {"size": 10_000, "seed": 8407, "normalization": "batch", "pool": 12_500},
+    "paper-extended": {"size": 100_000, "seed": 8407, "normalization": "batch",
+                       "pool": 125_000},
+    "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
+                   "skip": 1_000},
 }
+PRESETS["standard"] = PRESETS["alg1-standard"]  # the names of earlier releases
+PRESETS["extended"] = PRESETS["alg1-extended"]
+PRESETS["test"] = PRESETS["alg1-test"]
+
+
+def preset_kwargs(name):
+    """``generate_dataset`` keyword arguments of a preset (all but size and seed).
+
+    Example:
+        >>> preset_kwargs("paper-test")
+        {'normalization': 'batch', 'pool': 6250, 'skip': 1000}
+    """
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; choose from {sorted(PRESETS)}")
+    return {k: v for k, v in PRESETS[name].items() if k not in ("size", "seed")}
 
 #: Label tolerances: reference solve, energy drift and excursion beyond [0, 1] allowed.
 LABEL_RTOL = 1e-15
@@ -122,12 +149,10 @@ class Dataset:
         Returns:
             (train, validation) index arrays.
         """
-        if not 0 < train_fraction < 1:
-            raise ValueError(f"train_fraction must lie in (0, 1), got {train_fraction}")
-        rng = np.random.default_rng(self.seed if seed is None else seed)
-        order = rng.permutation(len(self))
-        n_train = int(round(train_fraction * len(self)))
-        return np.sort(order[:n_train]), np.sort(order[n_train:])
+        from .rows import split_indices
+
+        return split_indices(len(self), self.seed if seed is None else seed,
+                             train_fraction)
 
     def to_deepxde(self, train_fraction=0.8, seed=None, dtype=np.float32, **kwargs):
         """DeepXDE training data of this dataset: an :class:`~nh_operators.OperatorData`.
@@ -159,7 +184,8 @@ class Dataset:
 
 
 def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=True,
-                     rtol=LABEL_RTOL, energy_tol=ENERGY_TOL, **space_kwargs):
+                     force=False, skip=0, rtol=LABEL_RTOL, energy_tol=ENERGY_TOL,
+                     **space_kwargs):
     """Generate n potentials with exact labels on :data:`SENSORS` / :data:`TIMES`.
 
     Potentials are drawn one after another from ``BoundedPotentialSpace(seed,
@@ -170,7 +196,9 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
 
     With ``path``, chunks stream to ``path + ".partial"`` (memory stays at a few
     chunks), which is renamed to ``path`` when complete; an interrupted run resumes from
-    the partial file when ``resume`` is true and its parameters match.
+    the partial file when ``resume`` is true and its parameters match, after checking
+    every kept chunk against the checksum recorded when it was written. A lock
+    (``path + ".lock"``) keeps two runs from writing the same path.
 
     Args:
         n: number of samples (≥ 1).
@@ -179,16 +207,25 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
         chunk: samples labelled per batch.
         progress: show a tqdm progress bar.
         resume: continue a matching ``.partial`` file.
+        force: replace a finished file at ``path`` (otherwise that is an error).
         rtol: tolerance of the reference solve.
         energy_tol: largest accepted energy error.
+        skip: valid samples drawn and discarded before the n kept (the paper's test set
+            is the last 4,000 of 5,000: ``skip=1000``).
         **space_kwargs: generator parameters (``n_grf``, ``length_scale``, ``omega``,
+            ``normalization`` (``"batch"``: the reference code's distribution; its
+            ``pool`` defaults to 1.25 (n + skip) candidates, as the code draws),
             ``margin``).
 
     Returns:
         :class:`Dataset` (loaded from ``path`` when given).
 
     Raises:
-        ValueError: for n < 1 or bad generator parameters.
+        ValueError: for n < 1, chunk < 1, a seed that is not a non-negative integer, a
+            directory as ``path``, or bad generator parameters.
+        FileExistsError: if ``path`` holds a finished file and ``force`` is false, or
+            another process is writing ``path``.
+        PermissionError: if the folder of ``path`` is not writable.
 
     Example:
         >>> ds = generate_dataset(8, seed=0, progress=False)
@@ -197,9 +234,18 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
     """
     if int(n) != n or n < 1:
         raise ValueError(f"n must be a positive integer, got {n}")
-    if int(seed) != seed:
-        raise ValueError(f"seed must be an integer, got {seed}")
-    n, seed = int(n), int(seed)
+    if int(seed) != seed or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed}")
+    if int(chunk) != chunk or chunk < 1:
+        raise ValueError(f"chunk must be a positive integer, got {chunk}")
+    n, seed, chunk = int(n), int(seed), int(chunk)
+    if path is not None:
+        check_output_path(path, force=force)
+    if int(skip) != skip or skip < 0:
+        raise ValueError(f"skip must be a non-negative integer, got {skip}")
+    skip = int(skip)
+    if space_kwargs.get("normalization") == "batch" and space_kwargs.get("pool") is None:
+        space_kwargs["pool"] = int(np.ceil(1.25 * (n + skip)))
     space = BoundedPotentialSpace(np.random.default_rng(seed), **space_kwargs)
     attrs = {
         "format": "nh-operators-dataset/1",
@@ -211,7 +257,9 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
         "V0": V0,
         "version": __version__,
     }
-    source = _Source(space, rtol, energy_tol)
+    if skip:
+        attrs["skip"] = skip
+    source = _Source(space, rtol, energy_tol, skip)
     if path is None:
         arrays, drops = source.take(n)
         attrs["dropped"] = drops
@@ -221,21 +269,64 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
     return load_dataset(path)
 
 
+def check_output_path(path, *, force=False):
+    """Refuse, before any work, an output path that cannot or should not be written.
+
+    Args:
+        path: the dataset file to be written.
+        force: allow replacing a finished file.
+
+    Raises:
+        ValueError: if ``path`` is a directory.
+        FileExistsError: if a finished file is there and ``force`` is false.
+        FileNotFoundError: if its folder does not exist.
+        PermissionError: if its folder is not writable.
+    """
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise ValueError(f"{path!r} is a directory; give a file name such as "
+                         f"{os.path.join(path, 'data.h5')!r}")
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"the folder of {path!r} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(f"cannot write to {folder!r} (read-only or no permission)")
+    if os.path.exists(path) and not force:
+        raise FileExistsError(f"{path!r} already exists; pass force=True (--force) to "
+                              "replace it")
+
+
 class _Source:
     """Draws, labels and filters potentials; remembers how many were dropped and why."""
 
-    def __init__(self, space, rtol, energy_tol):
+    def __init__(self, space, rtol, energy_tol, skip=0):
         self.space = space
         self.rtol = rtol
         self.energy_tol = energy_tol
+        self.skip_left = skip
+
+    def state(self):
+        """Where the stream stands (JSON-able), for a resume."""
+        return {"space": self.space.state(), "skip_left": self.skip_left}
+
+    def set_state(self, state):
+        self.space.set_state(state["space"])
+        self.skip_left = int(state["skip_left"])
 
     def take(self, n, drops=None):
         """The next n valid samples as a dict of arrays, and the drop counts."""
         drops = {} if drops is None else drops
+        if self.skip_left:  # valid samples drawn and discarded first (skip)
+            skip, self.skip_left = self.skip_left, 0
+            _, drops = self.take(skip, drops)
         parts = []
         kept = 0
         while kept < n:
+            skipped = self.space.skipped
             feats, scales = self.space.random_with_scales(n - kept)
+            at_v0 = self.space.skipped - skipped
+            if at_v0:
+                drops[_AT_V0] = drops.get(_AT_V0, 0) + at_v0
             cq, cv = self.space.controls(feats)
             pots = BoundedPotential(cq, cv)
             q, p, reasons = label_potentials(pots, TIMES, rtol=self.rtol, energy_tol=self.energy_tol)
@@ -253,6 +344,11 @@ class _Source:
         arrays["x"] = np.array(SENSORS)
         arrays["t"] = np.array(TIMES)
         return arrays, drops
+
+
+#: Drop reason of a batch-normalised candidate whose interior control value is V0 itself
+#: (the pool's minimum GRF value): its force at the wall can vanish, so it is skipped.
+_AT_V0 = "interior control value at V0"
 
 
 def load_dataset(path, *, verify=True):

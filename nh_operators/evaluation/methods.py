@@ -13,7 +13,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from .._constants import SENSORS
+from .._constants import SENSORS, TIMES
 from .._sensors import sensor_values
 from ..models import as_network
 from ..solvers import integrate_sensors, paper_rk4
@@ -93,7 +93,9 @@ class NeuralMethod(Method):
             case).
         batch_size: potentials per forward pass.
         domain_check: warn (:class:`~nh_operators.potentials.OutOfDomainWarning`) when
-            an input lies outside the distribution the generator produces.
+            an input lies outside the distribution the generator produces, and refuse
+            times beyond the training range [0, 2] (times must be finite and ≥ 0 in any
+            case).
 
     Example:
         >>> import nh_operators as nh
@@ -142,15 +144,34 @@ class NeuralMethod(Method):
         from ..models import predict
 
         V = sensor_values(V)
+        t = _network_times(self.name, t, self.domain_check)
         if self.domain_check:
             _warn_out_of_domain(self.name, V)
-        return predict(self.net, np.atleast_2d(V), t, batch_size=self.batch_size)
+        return predict(self.net, V, t, batch_size=self.batch_size)
 
     def synchronize(self):
         if self.device.startswith("cuda"):
             import torch
 
             torch.cuda.synchronize(self.device)
+
+
+def _network_times(name, t, domain_check):
+    """Query times a network may be asked: finite, ≥ 0, and in its training range [0, 2]
+    (beyond it only when the domain check is off: extrapolation asked for explicitly)."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim == 2 and t.shape[1] == 1:
+        t = t[:, 0]
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError(f"{name}: t must have shape (M,) or (M, 1) with M ≥ 1, got {t.shape}")
+    if not np.all(np.isfinite(t)) or t.min() < 0:
+        bad = t[~(np.isfinite(t) & (t >= 0))][0]
+        raise ValueError(f"{name}: times must be finite and ≥ 0, got {bad}")
+    if domain_check and t.max() > TIMES[-1] + 1e-12:
+        raise ValueError(f"{name} was trained on t ∈ [0, {TIMES[-1]:g}] and is not asked "
+                         f"beyond it (got t = {t.max():g}); use nh.solve for later times, or "
+                         "NeuralMethod(..., domain_check=False) to extrapolate")
+    return t
 
 
 def _warn_out_of_domain(name, V):

@@ -89,9 +89,9 @@ def timing_table(results):
 
 
 def save_figure(fig, path):
-    """Atomically write a matplotlib figure as PNG."""
+    """Atomically write a matplotlib figure in the format its suffix names (default PNG)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig.savefig(buf, format=Path(path).suffix.lstrip(".").lower() or "png", dpi=110)
     write_atomic(path, buf.getvalue())
 
 

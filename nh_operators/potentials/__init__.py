@@ -6,32 +6,15 @@ text, the bounded extension of a monotone potential, out-of-distribution familie
 the generator's domain at the sensors. The bottom wing: it imports no other wing.
 """
 
-from .bounded import BoundedPotential, check_bounded
-from .coerce import CallablePotential, as_potential
-from .domain import GENERATOR_DOMAIN, OutOfDomainWarning, domain_violations
-from .expression import FUNCTIONS, parse_expression, parse_potential
-from .ood import OOD_FAMILIES, ood_potential, ood_potentials
-from .physical import PHYSICAL_POTENTIALS, AnalyticPotential
-from .space import BoundedPotentialSpace
-from .unbounded import ExtendedPotential, extend_monotone
+from .._lazy import attach
 
-__all__ = [
-    "BoundedPotential",
-    "check_bounded",
-    "BoundedPotentialSpace",
-    "AnalyticPotential",
-    "PHYSICAL_POTENTIALS",
-    "FUNCTIONS",
-    "parse_potential",
-    "parse_expression",
-    "CallablePotential",
-    "as_potential",
-    "ExtendedPotential",
-    "extend_monotone",
-    "OOD_FAMILIES",
-    "ood_potential",
-    "ood_potentials",
-    "GENERATOR_DOMAIN",
-    "OutOfDomainWarning",
-    "domain_violations",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "bounded": ["BoundedPotential", "check_bounded"],
+    "coerce": ["CallablePotential", "as_potential", "check_force"],
+    "domain": ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations"],
+    "expression": ["FUNCTIONS", "parse_expression", "parse_potential"],
+    "ood": ["OOD_FAMILIES", "ood_potential", "ood_potentials"],
+    "physical": ["PHYSICAL_POTENTIALS", "AnalyticPotential"],
+    "space": ["NORMALIZATIONS", "BoundedPotentialSpace"],
+    "unbounded": ["ExtendedPotential", "extend_monotone"],
+})

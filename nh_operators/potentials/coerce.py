@@ -7,7 +7,10 @@ from .bounded import BoundedPotential, check_bounded
 from .expression import parse_potential
 from .physical import PHYSICAL_POTENTIALS
 
-__all__ = ["CallablePotential", "as_potential"]
+__all__ = ["CallablePotential", "as_potential", "check_force"]
+
+#: Where :func:`check_force` probes V': 2,001 points on [0, 1], both walls included.
+_FORCE_PROBE = np.linspace(0.0, 1.0, 2001)
 
 
 class CallablePotential:
@@ -55,30 +58,82 @@ def as_potential(potential, dV=None):
         (then the object is the (100,) array of sensor values).
 
     Raises:
-        ValueError: for an unknown name, a bad expression, or V breaking the bounded
-            conditions; TypeError for anything else.
+        ValueError: for an unknown name, a bad expression, V breaking the bounded
+            conditions, a force V' that is not finite somewhere on [0, 1], or sensor
+            values of the wrong shape; TypeError for complex values or anything else.
+
+    Example:
+        >>> pot, info = as_potential("SHO")
+        >>> pot.name, info
+        ('sho', 'exact V')
     """
     if isinstance(potential, str):
-        if potential in PHYSICAL_POTENTIALS:
-            return PHYSICAL_POTENTIALS[potential], "exact V"
-        return parse_potential(potential), "exact V"
+        key = potential.strip().lower()
+        if key in PHYSICAL_POTENTIALS:  # names are case-insensitive: "SHO", "Morse"
+            return PHYSICAL_POTENTIALS[key], "exact V"
+        pot = parse_potential(potential)
+        check_force(pot.dV, name=getattr(pot, "formula", potential))
+        return pot, "exact V"
     if isinstance(potential, BoundedPotential):
         if potential.batched:
             raise ValueError(f"one potential is expected here, got a batch of {len(potential)}; "
                              "index it with [i], e.g. pots[0]")
         return potential, "exact V"
     if hasattr(potential, "V") and hasattr(potential, "dV"):
-        check_bounded(potential.V, name=getattr(potential, "name", "V"))
+        name = getattr(potential, "name", "V")
+        check_bounded(potential.V, name=name)
+        check_force(potential.dV, name=name)
         return potential, "exact V"
     if callable(potential):
         pot = CallablePotential(potential, dV)
         check_bounded(pot.V, name=pot.name)
+        check_force(pot.dV, name=pot.name)
         return pot, "exact V"
+    if np.iscomplexobj(potential):
+        raise TypeError("sensor values must be real numbers, got complex ones")
     try:
         values = np.asarray(potential, dtype=np.float64)
     except (TypeError, ValueError):
         values = None
     if values is not None and values.shape == SENSORS.shape:
         return check_bounded(values), "sensors"
+    if values is not None and values.ndim == 2 and values.shape[1] == SENSORS.size:
+        raise ValueError(f"one potential is expected here, got {values.shape[0]} rows of "
+                         "sensor values; index one row, e.g. V[0]")
+    if values is not None and values.ndim >= 1 and values.dtype.kind == "f":
+        raise ValueError(f"sensor values must have shape ({SENSORS.size},), one value per "
+                         f"sensor x_j = j/{SENSORS.size - 1}; got shape {values.shape}")
     raise TypeError(f"cannot use {type(potential).__name__} as a potential: give a name, an "
                     "expression, a callable, a BoundedPotential or the 100 sensor values")
+
+
+def check_force(dV, name="V"):
+    """Refuse, up front, a potential whose force -V' is not finite somewhere on [0, 1].
+
+    A singular potential such as 2 - sqrt(q (1 - q)) has an infinite slope at the walls:
+    no solver can step through it, and a solve would return NaN.
+
+    Args:
+        dV: a vectorised callable q -> V'(q).
+        name: the potential's name, for the message.
+
+    Raises:
+        ValueError: naming the first q where V'(q) is infinite or NaN.
+
+    Example:
+        >>> check_force(lambda q: 16 * (q - 0.5))
+        >>> check_force(lambda q: (2 * q - 1) / (2 * (q * (1 - q)) ** 0.5), "2-(q*(1-q))**0.5")
+        Traceback (most recent call last):
+        ...
+        ValueError: 2-(q*(1-q))**0.5: V'(q) is not finite at q = 0 (V' = -inf): the force must be finite on [0, 1]; a potential with an infinite slope (a square root at a wall, a pole) cannot be integrated
+    """
+    with np.errstate(all="ignore"):
+        values = np.broadcast_to(np.asarray(dV(_FORCE_PROBE), dtype=np.float64),
+                                 _FORCE_PROBE.shape)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        i = bad[0]
+        raise ValueError(f"{name}: V'(q) is not finite at q = {_FORCE_PROBE[i]:.4g} (V' = "
+                         f"{values[i]}): the force must be finite on [0, 1]; a potential with "
+                         "an infinite slope (a square root at a wall, a pole) cannot be "
+                         "integrated")

@@ -5,41 +5,18 @@ paper's RK4 row, the adaptive reference solve used for truth, the resolution che
 the adaptive classical solve to a tolerance. Imports :mod:`nh_operators.potentials`.
 """
 
-from .classical_solve import SAFETY, ClassicalSolution, adaptive_solve, solve_classical
-from .fixed_step import integrate, integrate_sensors, paper_rk4, sensor_spline_params
-from .reference import reference_solve
-from .resolution import (
-    ENERGY_DRIFT_TOL,
-    RESOLUTION_FRACTION,
-    STABILITY_LIMITS,
-    ResolutionWarning,
-    check_energy,
-    check_formula,
-    check_resolution_of,
-    spline_curvature,
-    spline_drift,
-)
-from .schemes import METHODS, ORDERS
+from .._lazy import attach
 
-__all__ = [
-    "METHODS",
-    "ORDERS",
-    "ResolutionWarning",
-    "STABILITY_LIMITS",
-    "RESOLUTION_FRACTION",
-    "ENERGY_DRIFT_TOL",
-    "check_resolution_of",
-    "check_energy",
-    "check_formula",
-    "spline_curvature",
-    "spline_drift",
-    "integrate",
-    "integrate_sensors",
-    "paper_rk4",
-    "sensor_spline_params",
-    "reference_solve",
-    "ClassicalSolution",
-    "solve_classical",
-    "adaptive_solve",
-    "SAFETY",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "classical_solve": ["SAFETY", "ClassicalSolution", "adaptive_solve", "coerce_potential",
+                        "solve_classical"],
+    "fixed_step": ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"],
+    "periodic": ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError"],
+    "reference": ["reference_solve"],
+    "resolution": ["ENERGY_DRIFT_TOL", "RESOLUTION_FRACTION", "STABILITY_LIMITS",
+                   "ResolutionWarning", "check_energy", "check_formula", "check_resolution_of",
+                   "spline_curvature", "spline_drift"],
+    "rows": ["RowSource", "row_source", "solve_rows"],
+    "schemes": ["MAX_STEPS", "METHODS", "ORDERS"],
+    "states": ["STATE_ATOL", "check_states", "state_arrays"],
+})

@@ -4,36 +4,14 @@
 the pretrained weights. Imports every wing below it.
 """
 
-from .auto_solve import CALIBRATION, DEFAULT_TOL, Solution, solve
-from .calibration import CLASSICAL_TOLS, calibrate_pretrained
-from .contract import Case, contract_cases, measure_contract, network_estimates
-from .estimate import (
-    CALIBRATION_QUANTILE,
-    calibrate,
-    raw_estimate,
-    residuals,
-    spline_rows,
-)
-from .shipped import WEIGHTS, available_pretrained, export_pretrained, pretrained
+from .._lazy import attach
 
-__all__ = [
-    "spline_rows",
-    "residuals",
-    "raw_estimate",
-    "calibrate",
-    "CALIBRATION_QUANTILE",
-    "Solution",
-    "solve",
-    "DEFAULT_TOL",
-    "CALIBRATION",
-    "WEIGHTS",
-    "available_pretrained",
-    "pretrained",
-    "export_pretrained",
-    "calibrate_pretrained",
-    "CLASSICAL_TOLS",
-    "Case",
-    "contract_cases",
-    "measure_contract",
-    "network_estimates",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "auto_solve": ["DEFAULT_TOL", "Solution", "solve"],
+    "calibration": ["CLASSICAL_TOLS", "calibrate_pretrained"],
+    "contract": ["Case", "contract_cases", "measure_contract", "network_estimates"],
+    "estimate": ["CALIBRATION_QUANTILE", "calibrate", "raw_estimate", "residuals", "spline_rows"],
+    "many": ["ManySolution", "solve_many"],
+    "catalog": ["CALIBRATION", "WEIGHTS", "available_pretrained"],
+    "shipped": ["export_pretrained", "pretrained"],
+})

@@ -30,16 +30,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._constants import SENSORS, TIMES
-from ..potentials import as_potential
-from ..solvers import ORDERS, adaptive_solve
+from ..solvers import ORDERS, adaptive_solve, coerce_potential
+from .catalog import CALIBRATION, WEIGHTS, available_pretrained
 from .estimate import acceptance_rate, raw_estimate, sensor_force
 
-__all__ = ["Solution", "solve", "DEFAULT_TOL", "CALIBRATION"]
+__all__ = ["Solution", "solve", "DEFAULT_TOL"]
 
 #: Tolerance of the classical solve when none is given.
 DEFAULT_TOL = 1e-8
-#: File of a shipped model's calibration, next to its weights.
-CALIBRATION = "calibration.json"
 
 
 @dataclass
@@ -68,14 +66,32 @@ class Solution:
     tried: list = field(default_factory=list)
 
 
-@functools.lru_cache(maxsize=None)
-def _model(name):
-    from .shipped import WEIGHTS, pretrained
+#: Shipped models loaded so far (by name), each with its ``calibration``.
+_LOADED = {}
 
-    model = pretrained(name)
+
+@functools.lru_cache(maxsize=None)
+def _calibration_file(name):
     path = WEIGHTS / name / CALIBRATION
-    model.calibration = json.loads(path.read_text()) if path.is_file() else None
-    return model
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _calibration(name):
+    """A shipped model's calibration, or None: the loaded model's, else read from its file
+    (so ranking the networks loads neither torch nor a network)."""
+    model = _LOADED.get(name)
+    return model.calibration if model is not None else _calibration_file(name)
+
+
+def _model(name):
+    """The shipped model ``name``, loaded once, with its ``calibration``."""
+    if name not in _LOADED:
+        from .shipped import pretrained
+
+        model = pretrained(name)
+        model.calibration = _calibration_file(name)
+        _LOADED[name] = model
+    return _LOADED[name]
 
 
 def _sensor_values(pot, information):
@@ -95,6 +111,7 @@ def neural_solve(name, pot, information, t):
     """
     from .._backend import single_threaded
 
+    _model(name)  # loads torch first, so that the block below limits its threads too
     with single_threaded():
         return _neural_solve(name, pot, information, t)
 
@@ -150,7 +167,7 @@ def _ranked(tol, kind, calibrations):
     (``calibrations``: ids, so a new one is seen)."""
     best, notes = None, []
     for name in _networks():
-        cal = _model(name).calibration
+        cal = _calibration(name)
         if cal is None:
             notes.append(f"{name}: not calibrated")
             continue
@@ -167,8 +184,6 @@ def _ranked(tol, kind, calibrations):
 
 @functools.lru_cache(maxsize=1)
 def _networks():
-    from .shipped import available_pretrained
-
     return tuple(available_pretrained())
 
 
@@ -177,7 +192,7 @@ def _choose(tol, values, t, kind):
     the sensor values; the costs are weighed first, as they need no evaluation of V."""
     from ..potentials import domain_violations
 
-    best, notes = _ranked(tol, kind, tuple(id(_model(n).calibration) for n in _networks()))
+    best, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()))
     if best is None:
         return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
@@ -189,9 +204,14 @@ def _choose(tol, values, t, kind):
                      f"{best[2]:.0%} of its calibration set")
 
 
-def solve(potential, t, *, tol=None, method="auto", dV=None):
+def solve(potential, t, *, tol=None, method="auto", dV=None, q0=0.0, p0=0.0):
     """The trajectory at exactly the times ``t``, by the cheapest method expected to meet
-    ``tol``.
+    ``tol``, from the state (q0, p0).
+
+    Any horizon costs about one period of the orbit: times beyond 2 are answered from
+    the period (:mod:`nh_operators.solvers.periodic`), and the estimate includes the
+    phase error of the period. The networks were trained from (0, 0) on [0, 2]; other
+    states and later times are solved classically.
 
     Args:
         potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`, a text
@@ -206,13 +226,18 @@ def solve(potential, t, *, tol=None, method="auto", dV=None):
             :func:`~nh_operators.pretrained` returns for one (its shipped weights and
             calibration are used).
         dV: derivative of a callable ``potential``.
+        q0, p0: the starting state (floats, default (0, 0), the paper's); its energy
+            p0²/2 + V(q0) must be ≤ V0 and q0 in [0, 1].
 
     Returns:
         :class:`Solution`.
 
     Raises:
-        ValueError: a bad potential, times, tolerance or method name, or times outside
-            [0, 2] for a network.
+        ValueError: a bad potential, times, tolerance, state or method name, times
+            outside [0, 2] or a state other than (0, 0) for a network, or a time beyond
+            what float64 resolves.
+        PeriodError: a far horizon on an orbit whose period cannot be found (a
+            separatrix).
 
     Warns:
         UserWarning: a forced network whose estimate exceeds ``tol``.
@@ -227,7 +252,7 @@ def solve(potential, t, *, tol=None, method="auto", dV=None):
 
     start = time.perf_counter()
     with single_threaded():  # one potential: threads only wait for time slices
-        return _solve(potential, t, tol, method, dV, start)
+        return _solve(potential, t, tol, method, dV, start, q0, p0)
 
 
 def _method_name(method):
@@ -243,7 +268,12 @@ def _method_name(method):
                      "nh.predict(net, V, t))")
 
 
-def _solve(potential, t, tol, method, dV, start):
+def _rest_at_zero(q0, p0):
+    """Whether (q0, p0) is the networks' state (0, 0) (scalars only)."""
+    return np.ndim(q0) == 0 and np.ndim(p0) == 0 and float(q0) == 0.0 and float(p0) == 0.0
+
+
+def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
     method = _method_name(method)
     if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
         raise ValueError(f"tol must be a positive number or None, got {tol!r}")
@@ -252,15 +282,22 @@ def _solve(potential, t, tol, method, dV, start):
     if method != "auto" and method not in classical and method not in networks:
         raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
                          f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
-    pot, information = as_potential(potential, dV)
+    pot, information = coerce_potential(potential, dV)
     t = np.asarray(t, dtype=np.float64).reshape(-1)
     if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
         raise ValueError("t must be a non-empty array of finite times ≥ 0")
     tried = []
 
+    rest = _rest_at_zero(q0, p0)
     if method in networks:
+        if not rest:
+            raise ValueError(f"{method} was trained from the state (0, 0) only; got (q0, p0) "
+                             f"= ({q0}, {p0}): use method='auto' or 'classical'")
         return _forced_network(method, pot, information, t, tol, start)
-    if method == "auto" and tol is not None:
+    if method == "auto" and tol is not None and not rest:
+        reason = ("a state other than (0, 0): the networks were trained from rest at q = 0, "
+                  "so the classical solver")
+    elif method == "auto" and tol is not None:
         name, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
                                _input_kind(pot, information))
         if name is not None:
@@ -279,10 +316,11 @@ def _solve(potential, t, tol, method, dV, start):
         reason = "forced"
     integrator = classical.get(method, "rk4")
     t0 = time.perf_counter()
-    sol = adaptive_solve(pot, information, t, DEFAULT_TOL if tol is None else tol, integrator)
+    sol = adaptive_solve(pot, information, t, DEFAULT_TOL if tol is None else tol, integrator,
+                         q0=q0, p0=p0)
     tried.append({"method": integrator, "error_estimate": sol.error_estimate,
                   "accepted": True, "seconds": time.perf_counter() - t0,
-                  "substeps": sol.substeps})
+                  "substeps": sol.substeps, "period": sol.period})
     return Solution(sol.q, sol.p, integrator, "classical", sol.error_estimate,
                     time.perf_counter() - start, tol, reason, tried)
 

@@ -19,7 +19,8 @@ from .._metrics import loss_per_sample
 from ..potentials import PHYSICAL_POTENTIALS
 from ..solvers import adaptive_solve
 from ..training import write_atomic
-from .auto_solve import CALIBRATION, _model, neural_raw, neural_solve
+from .auto_solve import _model, neural_raw, neural_solve
+from .catalog import CALIBRATION
 from .estimate import calibrate
 
 __all__ = ["calibrate_pretrained", "CLASSICAL_TOLS"]
@@ -90,7 +91,7 @@ def calibrate_pretrained(name, dataset, *, n_timing=30, n_ood=400, ood_seed=2719
     """
     from ..data import load_dataset
     from ..evaluation import device_info
-    from .shipped import WEIGHTS
+    from .catalog import WEIGHTS
 
     if not hasattr(dataset, "V"):
         dataset = load_dataset(dataset)

@@ -20,27 +20,13 @@ from pathlib import Path
 
 import torch
 
-from ..training import CHECKPOINT, load_checkpoint, write_atomic
-from ..training.checkpoint import CONFIG, HISTORY
+from ..training import CHECKPOINT, CONFIG, HISTORY, load_checkpoint, write_atomic
+from .catalog import WEIGHTS, available_pretrained
 
-__all__ = ["WEIGHTS", "available_pretrained", "pretrained", "export_pretrained"]
+__all__ = ["pretrained", "export_pretrained"]
 
-#: Folder of the shipped weights.
-WEIGHTS = Path(__file__).parent / "weights"
 METRICS = "metrics.json"
 _SLIM = ("format", "config", "model", "epoch", "data_checksum", "version")
-
-
-def available_pretrained():
-    """Names of the shipped models, sorted.
-
-    Example:
-        >>> "deeponet" in available_pretrained()
-        True
-    """
-    if not WEIGHTS.is_dir():
-        return []
-    return sorted(p.name for p in WEIGHTS.iterdir() if (p / CHECKPOINT).is_file())
 
 
 def pretrained(name, *, device="cpu", batch_size=1000):
@@ -70,6 +56,7 @@ def pretrained(name, *, device="cpu", batch_size=1000):
     from ..evaluation import NeuralMethod
 
     names = available_pretrained()
+    name = name.lower() if isinstance(name, str) else name  # "TraONet" works too
     if name not in names:
         raise ValueError(f"no pretrained model {name!r}; available: {names or 'none'}")
     folder = WEIGHTS / name

@@ -11,39 +11,15 @@ A run directory written by :func:`nh_operators.train` holds
 import csv
 import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import torch
 
-__all__ = ["CHECKPOINT", "load_checkpoint", "load_model", "write_atomic",
-           "save_checkpoint", "write_history"]
+from .files import CHECKPOINT, CONFIG, HISTORY, write_atomic
 
-#: File name of a run's checkpoint inside its run directory.
-CHECKPOINT = "checkpoint.pt"
-CONFIG = "config.json"
-HISTORY = "history.csv"
+__all__ = ["load_checkpoint", "load_model", "save_checkpoint", "write_history"]
+
 FORMAT = 1
-
-
-def write_atomic(path, data):
-    """Write bytes to ``path`` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would hide shipped files from others
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def save_checkpoint(run_dir, state):
