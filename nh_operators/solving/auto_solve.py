@@ -273,7 +273,8 @@ def _rest_at_zero(q0, p0):
     return np.ndim(q0) == 0 and np.ndim(p0) == 0 and float(q0) == 0.0 and float(p0) == 0.0
 
 
-def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
+def _checked(method, tol):
+    """(method name, shipped networks, classical names -> integrator), or a clear error."""
     method = _method_name(method)
     if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
         raise ValueError(f"tol must be a positive number or None, got {tol!r}")
@@ -282,6 +283,11 @@ def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
     if method != "auto" and method not in classical and method not in networks:
         raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
                          f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
+    return method, networks, classical
+
+
+def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
+    method, networks, classical = _checked(method, tol)
     pot, information = coerce_potential(potential, dV)
     t = np.asarray(t, dtype=np.float64).reshape(-1)
     if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:

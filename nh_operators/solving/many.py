@@ -20,11 +20,10 @@ import numpy as np
 from .._backend import single_threaded
 from .._constants import SENSORS, TIMES
 from ..potentials import GENERATOR_DOMAIN, BoundedPotential, check_bounded
-from ..solvers import ORDERS
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
-from .auto_solve import (DEFAULT_TOL, _calibration, _method_name, _model, _networks, _ranked,
+from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
                          _solve)
 from .estimate import raw_estimate, sensor_force
 
@@ -160,14 +159,7 @@ def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progre
 
 
 def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
-    method = _method_name(method)
-    if tol is not None and not (isinstance(tol, (int, float)) and np.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol must be a positive number or None, got {tol!r}")
-    networks = _networks()
-    classical = {"classical": "rk4", **{m: m for m in ORDERS}}
-    if method != "auto" and method not in classical and method not in networks:
-        raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
-                         f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
+    method, networks, classical = _checked(method, tol)
     if isinstance(potentials, (list, tuple)):
         return _one_by_one(potentials, t, q0, p0, tol, method, start)
     if isinstance(potentials, BoundedPotential):
