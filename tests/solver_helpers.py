@@ -1,5 +1,7 @@
 """Shared helpers of the solver tests (their fixtures live in conftest.py)."""
 
+from pathlib import Path
+
 import numpy as np
 from scipy.integrate import solve_ivp
 
@@ -24,3 +26,15 @@ def dop853(force, t, rtol=1e-13, atol=1e-13):
                     method="DOP853", t_eval=t, rtol=rtol, atol=atol)
     assert sol.success
     return sol.y[0], sol.y[1]
+
+
+def generator_sensor_values():
+    """Sensor values of generator potentials: the test set when one is kept in /work/runs,
+    else 500 drawn with its seed (42)."""
+    import nh_operators as nh
+
+    runs = Path("/work/runs")
+    if (runs / "test.h5").exists():
+        return nh.load_dataset(runs / "test.h5").V
+    space = nh.BoundedPotentialSpace(seed=42)
+    return nh.BoundedPotentialSpace.potentials(space.random(500)).V(nh.SENSORS)

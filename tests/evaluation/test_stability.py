@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import torch
 from scipy.interpolate import CubicSpline
+from solver_helpers import generator_sensor_values
 
 import nh_operators as nh
 from nh_operators.evaluation import (
@@ -28,7 +29,6 @@ from nh_operators.evaluation import (
 )
 from nh_operators.models import cast_network
 from nh_operators.potentials import (
-    GENERATOR_DOMAIN,
     OutOfDomainWarning,
     domain_violations,
 )
@@ -267,17 +267,8 @@ def test_physical_potentials_warn_only_for_the_kink():
                 assert messages == [], (name, method, substeps)
 
 
-def _generator_V():
-    if (RUNS / "test.h5").exists():
-        from nh_operators.data import load_dataset
-
-        return load_dataset(RUNS / "test.h5").V
-    space = nh.BoundedPotentialSpace(seed=42)
-    return nh.BoundedPotentialSpace.potentials(space.random(500)).V(nh.SENSORS)
-
-
 def test_generator_potentials_raise_no_warning():
-    V = _generator_V()
+    V = generator_sensor_values()
     runs = [("rk4", 1), ("rk4", 2), ("rk4", 4), ("yoshida4", 2), ("yoshida8", 2), ("yoshida8", 4)]
     with warnings.catch_warnings():
         warnings.simplefilter("error", ResolutionWarning)
@@ -285,34 +276,6 @@ def test_generator_potentials_raise_no_warning():
             integrate_sensors(V, nh.TIMES, method, substeps)
         paper_rk4(V, nh.TIMES)
     assert ENERGY_DRIFT_TOL["cubic"] == 0.1
-
-
-# ------------------------------------------------------------------ the domain check
-
-
-def test_generator_samples_are_inside_the_domain():
-    assert domain_violations(_generator_V()) == []
-    space = nh.BoundedPotentialSpace(seed=7)
-    assert domain_violations(space.potentials(space.random(300)).V(nh.SENSORS)) == []
-    for name, pot in nh.PHYSICAL_POTENTIALS.items():
-        assert domain_violations(pot.V(nh.SENSORS)) == [], name
-
-
-def test_extreme_cases_are_reported():
-    reasons = {name: domain_violations(V) for name, V in SENSOR_VALUES.items()}
-    assert reasons["mff"] == reasons["smff_200"] == []
-    assert len(reasons["steep_wall"]) == 2
-    assert "steeper than the generator's max |V'| = 80: max |ΔV/Δq| = 125.9" in (
-        reasons["steep_wall"][0])
-    assert reasons["deep_well"][0].startswith("V has values below -2")
-    assert "min V = -99.9" in reasons["deep_well"][0]
-    assert reasons["near_flat"] == [f"V never dips below {GENERATOR_DOMAIN['min_V_at_most']:.3g} "
-                                    "(every generator potential does: too flat): min V = 1.99"]
-    batch = np.stack([SENSOR_VALUES["mff"], SENSOR_VALUES["deep_well"], SENSOR_VALUES["mff"]])
-    (message,) = [m for m in domain_violations(batch) if "below -2" in m]
-    assert message.startswith("V[1] (1 of 3 rows) has values below -2") and "in row 1" in message
-    with pytest.raises(ValueError, match="finite values at the 100 sensors"):
-        domain_violations(np.zeros(99))
 
 
 # -------------------------------------------------------------------- neural networks
