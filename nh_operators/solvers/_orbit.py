@@ -21,7 +21,7 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT_FN_ARG
+from ..potentials._spline_kernels import _JIT, _JIT_FN_ARG
 
 #: Status codes of :func:`orbit_period`.
 OK, STATIONARY, NOT_CONVERGED, BARRIER = 0, 1, 2, 3
@@ -46,6 +46,18 @@ _OUTSIDE = 0.05  # how far past a wall a turning point is looked for
 _FLAT = 1e-7  # |V'| at a turning point below this share of max |V'|: a separatrix
 
 
+@numba.njit(**_JIT)
+def _at_rest(out, q0):
+    """Fill ``out`` for a particle that stays at q0 (no period); returns STATIONARY."""
+    out[0] = math.inf
+    out[1] = 0.0
+    out[2] = q0
+    out[3] = q0
+    out[4] = 0.0
+    out[6] = q0
+    return STATIONARY
+
+
 def orbit_period(value, force, par, q0, p0, out):
     """Period of the orbit through (q0, p0); writes out[0..6] and returns a status.
 
@@ -61,13 +73,7 @@ def orbit_period(value, force, par, q0, p0, out):
     if not (energy - value(par, q0) > 0.0):
         f0 = force(par, q0)
         if f0 == 0.0:
-            out[0] = math.inf
-            out[1] = 0.0
-            out[2] = q0
-            out[3] = q0
-            out[4] = 0.0
-            out[6] = q0
-            return STATIONARY
+            return _at_rest(out, q0)
         direction = 1.0 if f0 > 0.0 else -1.0
         fixed_side = -1 if f0 > 0.0 else 1
         found = False
@@ -80,13 +86,7 @@ def orbit_period(value, force, par, q0, p0, out):
                 break
             step *= 0.5
         if not found:
-            out[0] = math.inf
-            out[1] = 0.0
-            out[2] = q0
-            out[3] = q0
-            out[4] = 0.0
-            out[6] = q0
-            return STATIONARY
+            return _at_rest(out, q0)
     ends = np.empty(2)
     flat = np.full(2, math.inf)  # |V'| at the turning points found by bisection
     for side in range(2):

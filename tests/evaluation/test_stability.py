@@ -7,7 +7,6 @@ import math
 import re
 import tracemalloc
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -47,7 +46,6 @@ from nh_operators.solvers import (
 POTS = extreme_potentials()
 SENSOR_VALUES = {name: pot.V(nh.SENSORS) for name, pot in POTS.items()}
 SMOOTH = ["steep_wall", "near_flat", "deep_well", "smff_200"]
-RUNS = Path("/work/runs")
 TINY = {"deeponet": dict(hidden_size=16, hidden_layers=2, branches=4),
         "traonet": dict(d_model=16, nhead=2, num_layers=1, dim_feedforward=32)}
 
