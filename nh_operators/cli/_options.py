@@ -65,6 +65,14 @@ def positive_float(text):
     return value
 
 
+def unit_interval(text):
+    """A number in [0, 1)."""
+    value = finite_float(text)
+    if not 0 <= value < 1:
+        raise argparse.ArgumentTypeError(f"must lie in [0, 1), got {text!r}")
+    return value
+
+
 def existing_file(text):
     """A path to a file that exists (not a directory)."""
     if os.path.isdir(text):

@@ -3,7 +3,8 @@
 import ast
 import os
 
-from ._options import existing_file, finite_float, nonnegative_int, positive_float, positive_int
+from ._options import (existing_file, finite_float, nonnegative_int, positive_float,
+                       positive_int, unit_interval)
 
 #: The networks' names (the models wing's MODELS, repeated here so that parsing and
 #: ``--help`` do not import torch; tests/cli checks that they agree).
@@ -34,7 +35,8 @@ def _train(args):
         lr=args.lr, upper_bound=args.upper_bound, infimum_lr=args.infimum_lr, beta=args.beta)
     config = TrainConfig(**tuned, epochs=args.epochs, seed=args.seed,
                          batch_size=args.batch_size, scheduler=args.scheduler,
-                         dtype=args.dtype, device=args.device, amp=args.amp)
+                         dtype=args.dtype, device=args.device, amp=args.amp,
+                         loss=args.loss, ema=args.ema)
     net, history = train(config, args.data, args.out, resume=args.resume,
                          progress=not args.quiet, max_minutes=args.max_minutes,
                          stop_after=args.stop_after, max_rows=args.max_rows)
@@ -115,6 +117,11 @@ def register(sub):
     tr.add_argument("--beta", type=finite_float, help="KL weight (VaRONet)")
     tr.add_argument("--scheduler", default="exphyperbolic",
                     choices=["exphyperbolic", "hyperbolic", "constant"])
+    tr.add_argument("--loss", default="mse", choices=["mse", "logcosh"],
+                    help="training loss (validation is always the paper's MSE)")
+    tr.add_argument("--ema", type=unit_interval, default=0.0, metavar="DECAY",
+                    help="average the weights (EMA with warm-up, capped at DECAY, e.g. "
+                         "0.999); validation and the saved network use the average")
     tr.add_argument("--dtype", default="float32", choices=["float32", "float64"])
     tr.add_argument("--device", default="auto", help="auto, cpu, cuda, cuda:N")
     tr.add_argument("--amp", action="store_true", help="float16 autocast (CUDA only)")

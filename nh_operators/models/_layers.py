@@ -75,6 +75,58 @@ class SensorEmbedding(nn.Module):
         return tokens
 
 
+class CrossDecoderLayer(nn.Module):
+    """A transformer decoder layer without self-attention: each query token attends
+    to the memory only, then goes through the feed-forward block, so every query is
+    computed on its own (``nn.TransformerDecoderLayer`` minus its first block).
+
+    Args:
+        d_model, nhead, dim_feedforward, dropout: as ``nn.TransformerDecoderLayer``.
+        activation: "relu" or "gelu".
+        norm_first: pre-norm (x + f(LN(x))) instead of post-norm (LN(x + f(x))).
+    """
+
+    def __init__(self, d_model, nhead, dim_feedforward, dropout=0.0, activation="relu",
+                 norm_first=False):
+        super().__init__()
+        self.norm_first = norm_first
+        self.cross = nn.MultiheadAttention(d_model, nhead, dropout=dropout,
+                                           batch_first=True)
+        self.ff = nn.Sequential(nn.Linear(d_model, dim_feedforward), _activation(activation),
+                                nn.Dropout(dropout), nn.Linear(dim_feedforward, d_model))
+        self.norm1 = nn.LayerNorm(d_model)
+        self.norm2 = nn.LayerNorm(d_model)
+        self.drop1 = nn.Dropout(dropout)
+        self.drop2 = nn.Dropout(dropout)
+
+    def _attend(self, x, memory):
+        return self.drop1(self.cross(x, memory, memory, need_weights=False)[0])
+
+    def forward(self, x, memory):
+        if self.norm_first:
+            x = x + self._attend(self.norm1(x), memory)
+            return x + self.drop2(self.ff(self.norm2(x)))
+        x = self.norm1(x + self._attend(x, memory))
+        return self.norm2(x + self.drop2(self.ff(x)))
+
+
+def _activation(name):
+    if name not in ("relu", "gelu"):
+        raise ValueError(f"activation must be 'relu' or 'gelu', got {name!r}")
+    return nn.ReLU() if name == "relu" else nn.GELU()
+
+
+def transformer_encoder(d_model, nhead, num_layers, dim_feedforward, dropout=0.0,
+                        activation="relu", norm_first=False):
+    """PyTorch's transformer encoder with our options (a final LayerNorm when pre-norm)."""
+    _activation(activation)
+    layer = nn.TransformerEncoderLayer(d_model, nhead, dim_feedforward, dropout,
+                                       activation=activation, batch_first=True,
+                                       norm_first=norm_first)
+    return nn.TransformerEncoder(layer, num_layers, enable_nested_tensor=False,
+                                 norm=nn.LayerNorm(d_model) if norm_first else None)
+
+
 class TimeDecoder(nn.Module):
     """The trunk of TraONet and MambONet: time tokens attend to the encoded potential.
 
@@ -84,26 +136,53 @@ class TimeDecoder(nn.Module):
     meaning for any set of query times). A transformer decoder without masks (every
     time token sees every other and the whole memory) is followed by Linear(d, n_out).
 
-    Note that the self-attention couples the query times: a prediction at t depends
-    slightly on which other times are asked for in the same call.
+    With ``query_attention=True`` (the paper's decoder) the self-attention couples the
+    query times: a prediction at t depends slightly on which other times are asked for
+    in the same call. ``query_attention=False`` uses :class:`CrossDecoderLayer` (cross-
+    attention and feed-forward only), so each time is predicted on its own.
+
+    Args:
+        d_model, nhead, num_layers, dim_feedforward, n_outputs, dropout, time_scale:
+            as the networks that use it.
+        query_attention: self-attention across the query times (default True).
+        norm_first: pre-norm layers, plus a LayerNorm before the output layer.
+        activation: "relu" (default, PyTorch's) or "gelu".
     """
 
     def __init__(self, d_model, nhead, num_layers, dim_feedforward, n_outputs,
-                 dropout=0.0, time_scale=99 / 2):
+                 dropout=0.0, time_scale=99 / 2, query_attention=True, norm_first=False,
+                 activation="relu"):
         super().__init__()
         self.d_model = d_model
         self.time_scale = time_scale
+        self.query_attention = query_attention
         self.embed = nn.Linear(1, d_model)
-        layer = nn.TransformerDecoderLayer(d_model, nhead, dim_feedforward, dropout,
-                                           batch_first=True)
-        self.decoder = nn.TransformerDecoder(layer, num_layers)
+        if query_attention:
+            _activation(activation)
+            layer = nn.TransformerDecoderLayer(d_model, nhead, dim_feedforward, dropout,
+                                               activation=activation, batch_first=True,
+                                               norm_first=norm_first)
+            self.decoder = nn.TransformerDecoder(layer, num_layers)
+        else:
+            self.layers = nn.ModuleList(
+                CrossDecoderLayer(d_model, nhead, dim_feedforward, dropout, activation,
+                                  norm_first) for _ in range(num_layers))
+        self.final_norm = nn.LayerNorm(d_model) if norm_first else None
         self.head = nn.Linear(d_model, n_outputs)
 
     def forward(self, t, memory):
         """t (M, 1), memory (B, m, d) → (B, M, n_outputs)."""
         tokens = self.embed(t) + sinusoidal(t[:, 0] * self.time_scale, self.d_model)
         tokens = tokens.expand(memory.shape[0], -1, -1)
-        return self.head(self.decoder(tokens, memory))
+        if self.query_attention:
+            h = self.decoder(tokens, memory)
+        else:
+            h = tokens
+            for layer in self.layers:
+                h = layer(h, memory)
+        if self.final_norm is not None:
+            h = self.final_norm(h)
+        return self.head(h)
 
 
 class OperatorNet(NN):

@@ -39,7 +39,8 @@ class MambONet(OperatorNet):
         d_state, d_conv, expand: Mamba's state size (16), convolution width (4) and
             expansion factor (2).
         dropout: decoder dropout (default 0).
-        n_sensors, n_outputs, time_scale: as :class:`~nh_operators.models.TraONet`.
+        n_sensors, n_outputs, time_scale, query_attention, norm_first, activation: as
+            :class:`~nh_operators.models.TraONet` (the last two for the decoder).
 
     Example:
         >>> import torch
@@ -49,14 +50,16 @@ class MambONet(OperatorNet):
         torch.Size([3, 5, 2])
     """
 
-    query_coupled = True  # decoder self-attention over the query times
+    query_coupled = True  # decoder self-attention over the query times (by default)
 
     def __init__(self, d_model=128, num_mamba_layers=4, nhead=4, num_decoder_layers=4,
                  dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
-                 n_sensors=100, n_outputs=2, time_scale=99 / 2):
+                 n_sensors=100, n_outputs=2, time_scale=99 / 2, query_attention=True,
+                 norm_first=False, activation="relu"):
         super().__init__()
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
+        self.query_coupled = bool(query_attention)
         self.embedding = SensorEmbedding(d_model, positional=False)
         self.blocks = nn.ModuleList(
             ResidualMamba(d_model, layer_idx=i, d_state=d_state, d_conv=d_conv,
@@ -64,7 +67,8 @@ class MambONet(OperatorNet):
             for i in range(num_mamba_layers))
         self.norm = nn.LayerNorm(d_model)
         self.decoder = TimeDecoder(d_model, nhead, num_decoder_layers, dim_feedforward,
-                                   n_outputs, dropout, time_scale)
+                                   n_outputs, dropout, time_scale, query_attention,
+                                   norm_first, activation)
 
     def _forward(self, V, t):
         h = self.embedding(V)

@@ -1,8 +1,6 @@
 """TraONet: a transformer encoder over the potential, a transformer decoder over time."""
 
-from torch import nn
-
-from ._layers import OperatorNet, SensorEmbedding, TimeDecoder
+from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
 
 __all__ = ["TraONet"]
 
@@ -26,6 +24,11 @@ class TraONet(OperatorNet):
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
         time_scale: positions of the time encoding are t · time_scale (default 99/2:
             the index on the standard grid t_i = 2i/99).
+        query_attention: self-attention across the query times in the decoder
+            (default True, the paper's). False: each time is predicted on its own, and
+            ``query_coupled`` is False.
+        norm_first: pre-norm transformer layers (default False: post-norm, PyTorch's).
+        activation: "relu" (default) or "gelu" in the feed-forward blocks.
 
     Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
 
@@ -36,20 +39,21 @@ class TraONet(OperatorNet):
         torch.Size([3, 7, 2])
     """
 
-    query_coupled = True  # decoder self-attention over the query times
+    query_coupled = True  # decoder self-attention over the query times (by default)
 
     def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
-                 dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2):
+                 dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2,
+                 query_attention=True, norm_first=False, activation="relu"):
         super().__init__()
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
+        self.query_coupled = bool(query_attention)
         self.embedding = SensorEmbedding(d_model, positional=True)
-        layer = nn.TransformerEncoderLayer(d_model, nhead, dim_feedforward, dropout,
-                                           batch_first=True)
-        self.encoder = nn.TransformerEncoder(layer, num_layers,
-                                             enable_nested_tensor=False)
+        self.encoder = transformer_encoder(d_model, nhead, num_layers, dim_feedforward,
+                                           dropout, activation, norm_first)
         self.decoder = TimeDecoder(d_model, nhead, num_layers, dim_feedforward,
-                                   n_outputs, dropout, time_scale)
+                                   n_outputs, dropout, time_scale, query_attention,
+                                   norm_first, activation)
 
     def _forward(self, V, t):
         return self.decoder(t, self.encoder(self.embedding(V)))

@@ -5,6 +5,7 @@ import dataclasses
 import torch
 
 from ..models import model_config, training_defaults
+from .losses import LOSSES
 from .schedulers import ExpHyperbolicLR, HyperbolicLR
 
 __all__ = ["TrainConfig", "TrainingDiverged", "resolve_device"]
@@ -38,6 +39,12 @@ class TrainConfig:
         device: "auto" (CUDA when available), "cpu", "cuda", "cuda:1", ...
         amp: float16 autocast through DeepXDE's mixed mode; CUDA only.
         train_fraction: training part of the dataset's 80/20 split.
+        loss: the loss the optimiser follows, "mse" (the paper's) or "logcosh" (see
+            :mod:`~nh_operators.training.losses`); validation is always the MSE.
+        ema: 0 (default) for none, or the cap of an exponential moving average of the
+            weights with warm-up (:class:`~nh_operators.training.averaging.WeightAverage`;
+            0.999 is a good value). The average is what validation scores and what
+            the checkpoint's network (``load_model``) holds.
     """
 
     model: str
@@ -57,6 +64,8 @@ class TrainConfig:
     device: str = "auto"
     amp: bool = False
     train_fraction: float = 0.8
+    loss: str = "mse"
+    ema: float = 0.0
 
     def resolved(self):
         """A plain dict with every default filled in, validated.
@@ -86,6 +95,10 @@ class TrainConfig:
                              f"number of epochs ({cfg['epochs']})")
         if cfg["dtype"] not in ("float32", "float64"):
             raise ValueError(f"dtype must be 'float32' or 'float64', got {cfg['dtype']!r}")
+        if cfg["loss"] not in LOSSES:
+            raise ValueError(f"unknown loss {cfg['loss']!r}; choose from {sorted(LOSSES)}")
+        if not 0.0 <= cfg["ema"] < 1.0:
+            raise ValueError(f"ema must be 0 (none) or a decay in (0, 1), got {cfg['ema']}")
         if not cfg["lr"] > 0:
             raise ValueError(f"lr must be positive, got {cfg['lr']}")
         return cfg

@@ -9,6 +9,7 @@ sums are added over the ranks, so every rank takes the same decisions (divergenc
 wall-time budget) at the same iteration, and rank 0 alone writes and draws.
 """
 
+import contextlib
 import logging
 import math
 import time
@@ -59,6 +60,8 @@ class _EpochEnd(dde.callbacks.Callback):
             local = math.nan if loss is None else loss
             loss = float(run.dist.sum([local])[0]) / run.dist.world_size
         run.epoch_losses.append(loss)
+        if run.average is not None:
+            run.average.update(run.net)
         if loss is None or not math.isfinite(loss):
             run.diverged = run.data.cursor
             self.model.stop_training = True
@@ -84,6 +87,7 @@ class _Run:
         self.elapsed0 = 0.0
         self.max_seconds = None
         self.bar = None
+        self.average = None  # a WeightAverage when cfg["ema"]
         if progress and dist.is_main:
             from tqdm.auto import tqdm
 
@@ -99,9 +103,17 @@ class _Run:
         """The epoch of the last checkpoint (0: none)."""
         return self.history[-1]["epoch"] if self.history else 0
 
+    def scored(self):
+        """Context in which ``self.net`` holds the weights that are scored and saved
+        (the average when there is one)."""
+        if self.average is None:
+            return contextlib.nullcontext(self.net)
+        return self.average.applied(self.net)
+
     def end_epoch(self):
         lr = self.model.opt.param_groups[0]["lr"]
-        total, count = self.data.validation_sums(self.net, self.cfg["batch_size"])
+        with self.scored() as net:
+            total, count = self.data.validation_sums(net, self.cfg["batch_size"])
         seconds = self.elapsed0 + time.perf_counter() - self.t0
         if self.dist.active:  # validation shards added up; rank 0's clock for everyone
             total, count, seconds = self.dist.sum(
@@ -128,7 +140,8 @@ class _Run:
             self.bar.set_postfix(train=f"{record['train_loss']:.3e}",
                                  val=f"{record['val_loss']:.3e}", lr=f"{lr:.2e}")
         if self.epoch_callback is not None:
-            self.epoch_callback(dict(record), self.net)
+            with self.scored() as net:
+                self.epoch_callback(dict(record), net)
         if self.over_budget() and self.epoch < self.cfg["epochs"]:
             if self.dist.is_main:
                 log.warning("stopping after epoch %d of %d: the run has used %.1f min of "
@@ -142,15 +155,22 @@ class _Run:
                 and self.history[-1]["seconds"] >= self.max_seconds)
 
     def save(self):
+        extra = {}
+        if self.average is not None:  # "model" is what load_model gives: the average
+            extra = {"train_model": self.net.state_dict(),
+                     "average": self.average.state_dict()}
         save_checkpoint(self.out, {
+            **extra,
             "config": self.cfg,
-            "model": self.net.state_dict(),
+            "model": (self.net.state_dict() if self.average is None
+                      else self.average.shadow),
             "optimizer": self.model.opt.state_dict(),
             "scheduler": (None if self.scheduler is None
                           else self.scheduler.state_dict()),
             "epoch": self.epoch,
             "rng": _rng_state(self.device),
             "data_checksum": self.checksum,
+            "train_rows": self.data.n_train,
             "history": self.history,
             "version": __version__,
         })

@@ -17,10 +17,12 @@ import torch
 from .._backend import ensure_pytorch_backend
 from ..data import ShardedOperatorData, check_global_batch, open_rows
 from ..models import build_model, cast_network, count_parameters
+from .averaging import WeightAverage
 from .checkpoint import CHECKPOINT, load_checkpoint, write_config
 from .config import SCHEDULERS, TrainingDiverged
 from .distributed import init_distributed
 from .epochs import _EpochEnd, _Run
+from .losses import LOSSES
 
 dde = ensure_pytorch_backend()
 log = logging.getLogger(__name__)
@@ -61,7 +63,8 @@ def train(config, data, out, *, resume=False, progress=True, epoch_callback=None
             several passes over the file, for data larger than memory.
 
     Returns:
-        (network, history): the trained network (train mode) and a list of per-epoch
+        (network, history): the trained network (train mode; the weight average
+        when ``config.ema``) and a list of per-epoch
         dicts with epoch, train_loss, val_loss, lr and seconds.
 
     Raises:
@@ -121,7 +124,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
         opt = torch.optim.AdamW(net.parameters(), lr=cfg["lr"], betas=tuple(cfg["betas"]),
                                 weight_decay=cfg["weight_decay"])
         steps = data_obj.steps_per_epoch(cfg["batch_size"])
-        _untimed(dde.Model.compile)(model, opt, loss="mse", verbose=0)
+        _untimed(dde.Model.compile)(model, opt, loss=LOSSES[cfg["loss"]], verbose=0)
         sched_cls = SCHEDULERS[cfg["scheduler"]]
         scheduler = None if sched_cls is None else sched_cls(
             opt, cfg["upper_bound"], cfg["epochs"], cfg["infimum_lr"],
@@ -130,6 +133,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
         run = _Run(cfg, out, net, data_obj, model, scheduler, dist, checksum,
                    progress, epoch_callback)
         run.max_seconds = None if max_minutes is None else 60.0 * max_minutes
+        run.average = WeightAverage(net, cfg["ema"]) if cfg["ema"] else None
         if state is not None:
             _restore(run, state)
         last = cfg["epochs"] if stop_after is None else int(stop_after)
@@ -158,6 +162,8 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
                 run.bar.close()
             if hasattr(net, "noise"):
                 net.noise = None
+    if run.average is not None:  # the averaged weights are the result
+        net.load_state_dict(run.average.shadow)
     if run.diverged is not None:
         epoch = (run.diverged - 1) // steps + 1
         kept = (f"the checkpoint of epoch {run.history[-1]['epoch']} is kept in "
@@ -216,9 +222,15 @@ def _prepare(out, resume, cfg, checksum, dist):
     return state
 
 
+#: Config keys added after the first checkpoints were written, with their defaults.
+_ADDED = {"loss": "mse", "ema": 0.0}
+
+
 def _check_resumable(state, cfg, checksum):
-    # the number of processes may change between parts of a run (same global batch)
-    old = {k: v for k, v in state["config"].items() if k != "world_size"}
+    # the number of processes may change between parts of a run (same global batch);
+    # checkpoints from before an option existed had its default
+    old = {**_ADDED, **state["config"]}
+    old = {k: v for k, v in old.items() if k != "world_size"}
     cfg = {k: v for k, v in cfg.items() if k != "world_size"}
     if old != cfg:
         diff = sorted(k for k in set(old) | set(cfg) if old.get(k) != cfg.get(k))
@@ -229,7 +241,9 @@ def _check_resumable(state, cfg, checksum):
 
 
 def _restore(run, state):
-    run.net.load_state_dict(state["model"])
+    run.net.load_state_dict(state.get("train_model", state["model"]))
+    if run.average is not None:
+        run.average.load_state_dict(state["average"])
     run.model.opt.load_state_dict(state["optimizer"])
     if run.scheduler is not None:
         run.scheduler.load_state_dict(state["scheduler"])
