@@ -64,7 +64,7 @@ def main():
         match = re.fullmatch(r"(.+)-s(\d+)", run.name)
         if not (match and (run / "checkpoint.pt").exists()):
             continue
-        net, cfg = load_model(run)
+        net, _ = load_model(run)
         hist = read_history(run)
         n_train = load_checkpoint(run).get("train_rows", np.nan)  # older runs: unknown
         record = {"seed": int(match[2]), "epochs": int(hist["epoch"][-1]),

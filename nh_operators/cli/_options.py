@@ -9,7 +9,7 @@ import math
 import os
 
 __all__ = ["Parser", "positive_int", "nonnegative_int", "positive_float", "finite_float",
-           "existing_file", "existing_dir", "figure_file", "FIGURE_SUFFIXES"]
+           "unit_interval", "existing_file", "existing_dir", "figure_file", "FIGURE_SUFFIXES"]
 
 #: Figure formats matplotlib's Agg and vector backends write, by file suffix.
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif",

@@ -3,8 +3,14 @@
 import ast
 import os
 
-from ._options import (existing_file, finite_float, nonnegative_int, positive_float,
-                       positive_int, unit_interval)
+from ._options import (
+    existing_file,
+    finite_float,
+    nonnegative_int,
+    positive_float,
+    positive_int,
+    unit_interval,
+)
 
 #: The networks' names (the models wing's MODELS, repeated here so that parsing and
 #: ``--help`` do not import torch; tests/cli checks that they agree).
