@@ -57,6 +57,7 @@ def main():
     args = ap.parse_args()
 
     sets = {"val": split(args.val, "val")}
+    val_rows, val_checksum = _rows_and_checksum(args.val)
     if args.test:
         sets["test"] = split(args.test, "all")
     runs = collections.defaultdict(list)
@@ -64,9 +65,13 @@ def main():
         match = re.fullmatch(r"(.+)-s(\d+)", run.name)
         if not (match and (run / "checkpoint.pt").exists()):
             continue
-        net, _ = load_model(run)
+        net, cfg = load_model(run)
         hist = read_history(run)
-        n_train = load_checkpoint(run).get("train_rows", np.nan)  # older runs: unknown
+        state = load_checkpoint(run)
+        n_train = state.get("train_rows")
+        if n_train is None:  # checkpoints before train_rows: known if it is --val's file
+            n_train = (round(cfg["train_fraction"] * val_rows)
+                       if state["data_checksum"] == val_checksum else np.nan)
         record = {"seed": int(match[2]), "epochs": int(hist["epoch"][-1]),
                   "minutes": float(hist["seconds"][-1]) / 60,
                   "own_val": float(hist["val_loss"][-1])}
@@ -90,6 +95,13 @@ def main():
               f"({min(val):.2e}–{max(val):.2e}) | {test:.3e} | {np.mean(val) / base:.2f} |")
     if args.json:
         Path(args.json).write_text(json.dumps(runs, indent=1) + "\n")
+
+
+def _rows_and_checksum(path):
+    from nh_operators.data import dataset_attrs
+
+    attrs = dataset_attrs(path)
+    return int(attrs["size"]), attrs["checksum"]
 
 
 if __name__ == "__main__":
