@@ -17,7 +17,7 @@ def log_cosh(y_true, y_pred):
     """Mean of log(cosh(y_pred − y_true)) over all elements.
 
     Computed as x + softplus(−2x) − log 2, which does not overflow for large errors. For
-    small errors it is x²/2 (half the MSE); for large ones |x| − log 2, so single bad
+    small errors it is x²/2 (half the MSE); for large ones abs(x) − log 2, so single bad
     samples pull less than under the MSE. This is the training loss of the reference
     code's later versions.
 
