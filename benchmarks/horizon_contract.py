@@ -31,37 +31,13 @@ from nh_operators.evaluation import loss_per_sample
 from nh_operators.potentials import BoundedPotentialSpace
 
 
-def sho_exact(q0, p0, t):
-    A, phi = math.hypot(q0 - 0.5, p0 / 4), math.atan2(-p0 / 4, q0 - 0.5)
-    return 0.5 + A * np.cos(4 * t + phi), -4 * A * np.sin(4 * t + phi)
-
-
-def mff_exact(q0, p0, t):
-    """V = 4 |q - 1/2|: parabolas glued at q = 1/2; period sqrt(2E) (speed at the centre)."""
-    energy = 0.5 * p0**2 + 4 * abs(q0 - 0.5)
-    period = math.sqrt(2 * energy)
-    qs, ps = [], []
-    for tk in np.atleast_1d(t):
-        q, p, left = q0, p0, math.fmod(tk, period)
-        while True:
-            s = 1.0 if q > 0.5 or (q == 0.5 and p > 0) else -1.0
-            tau = (s * p + math.sqrt(p * p + 8 * abs(q - 0.5))) / 4
-            if left < tau:
-                q, p = q + p * left - 2 * s * left**2, p - 4 * s * left
-                break
-            q, p, left = 0.5, p - 4 * s * tau, left - tau
-        qs.append(q)
-        ps.append(p)
-    return np.array(qs), np.array(ps)
-
-
 def reference(pot, q0, p0, t, period):
     """Truth at t: the high-accuracy solve at t mod T (T checked against DOP853 below)."""
     r = t if not math.isfinite(period) else t - np.floor(t / period) * period
     if isinstance(pot, str) and pot == "sho":
-        return sho_exact(q0, p0, t)
+        return nh.PHYSICAL_POTENTIALS["sho"].exact(t, q0, p0)
     if pot is nh.PHYSICAL_POTENTIALS["mff"]:
-        return mff_exact(q0, p0, t)
+        return nh.PHYSICAL_POTENTIALS["mff"].exact(t, q0, p0)
     sol = nh.solve(pot, r, tol=1e-13, method="yoshida8", q0=q0, p0=p0)
     return sol.q, sol.p
 

@@ -20,6 +20,8 @@ class AnalyticPotential:
         V: vectorised callable q -> V(q).
         dV: vectorised callable q -> dV/dq.
         exact: optional callable t -> (q, p), the exact trajectory from rest at q = 0.
+        exact_from_state: optional callable (t, q0, p0) -> (q, p), the exact trajectory
+            from any state.
 
     Example:
         >>> sho = PHYSICAL_POTENTIALS["sho"]
@@ -28,12 +30,13 @@ class AnalyticPotential:
         (0.0, 0.0)
     """
 
-    def __init__(self, name, formula, V, dV, exact=None):
+    def __init__(self, name, formula, V, dV, exact=None, exact_from_state=None):
         self.name = name
         self.formula = formula
         self._V = V
         self._dV = dV
         self._exact = exact
+        self._exact_from_state = exact_from_state
 
     def V(self, q):
         return self._V(np.asarray(q, dtype=np.float64))
@@ -41,11 +44,15 @@ class AnalyticPotential:
     def dV(self, q):
         return self._dV(np.asarray(q, dtype=np.float64))
 
-    def exact(self, t):
-        """Exact (q(t), p(t)) as float64 arrays of the shape of t, or None if unknown."""
-        if self._exact is None:
+    def exact(self, t, q0=0.0, p0=0.0):
+        """Exact (q(t), p(t)) from the state (q0, p0) (default: the paper's, at rest at
+        q = 0), as float64 arrays of the shape of t; None if unknown."""
+        t = np.asarray(t, dtype=np.float64)
+        if q0 == 0.0 and p0 == 0.0 and self._exact is not None:
+            return self._exact(t)
+        if self._exact_from_state is None:
             return None
-        return self._exact(np.asarray(t, dtype=np.float64))
+        return self._exact_from_state(t, float(q0), float(p0))
 
     def __repr__(self):
         return f"AnalyticPotential({self.name!r}, V = {self.formula})"
@@ -55,6 +62,12 @@ def _sho_exact(t):
     return 0.5 * (1.0 - np.cos(4.0 * t)), 2.0 * np.sin(4.0 * t)
 
 
+def _sho_from_state(t, q0, p0):
+    # V = 8 (q - 1/2)²: q = 1/2 + A cos(4t + φ), p = -4 A sin(4t + φ), T = π/2.
+    A, phi = math.hypot(q0 - 0.5, p0 / 4), math.atan2(-p0 / 4, q0 - 0.5)
+    return 0.5 + A * np.cos(4 * t + phi), -4 * A * np.sin(4 * t + phi)
+
+
 def _mff_exact(t):
     # Period 2: fall from q = 0 to 1/2 (t < 1/2), rise to 1 and back to 1/2 (t < 3/2),
     # and return to 0; the formulas of the paper, extended periodically.
@@ -62,6 +75,25 @@ def _mff_exact(t):
     q = np.where(s < 0.5, 2 * s**2, np.where(s < 1.5, -2 * s**2 + 4 * s - 1, 2 * (2 - s) ** 2))
     p = np.where(s < 0.5, 4 * s, np.where(s < 1.5, 4 - 4 * s, -4 * (2 - s)))
     return q, p
+
+
+def _mff_from_state(t, q0, p0):
+    """V = 4 |q - 1/2| from any state: parabolas glued at q = 1/2, period sqrt(2E)."""
+    period = math.sqrt(2 * (0.5 * p0**2 + 4 * abs(q0 - 0.5)))
+    qs, ps = np.empty(t.shape), np.empty(t.shape)
+    for k, tk in np.ndenumerate(t):
+        q, p, left = q0, p0, math.fmod(tk, period)
+        while True:
+            s = 1.0 if q > 0.5 or (q == 0.5 and p > 0) else -1.0  # side; acceleration -4 s
+            tau = (s * p + math.sqrt(p * p + 8 * abs(q - 0.5))) / 4  # time to reach 1/2
+            if tau <= 0:
+                tau = s * p / 2 if s * p > 0 else 0.0
+            if left < tau or tau == 0.0 and p == 0:
+                q, p = q + p * left - 2 * s * left**2, p - 4 * s * left
+                break
+            q, p, left = 0.5, p - 4 * s * tau, left - tau
+        qs[k], ps[k] = q, p
+    return qs, ps
 
 
 _DE = 8.0 / (math.sqrt(5.0) - 1.0) ** 2
@@ -113,7 +145,8 @@ def smff(alpha):
 #: :class:`AnalyticPotential`.
 PHYSICAL_POTENTIALS = {
     "sho": AnalyticPotential(
-        "sho", "8 (q - 1/2)^2", lambda q: 8 * (q - 0.5) ** 2, lambda q: 16 * (q - 0.5), _sho_exact
+        "sho", "8 (q - 1/2)^2", lambda q: 8 * (q - 0.5) ** 2, lambda q: 16 * (q - 0.5), _sho_exact,
+        _sho_from_state,
     ),
     "double_well": AnalyticPotential(
         "double_well",
@@ -123,7 +156,8 @@ PHYSICAL_POTENTIALS = {
     ),
     "morse": AnalyticPotential("morse", "D_e (1 - exp(-a (q - 1/3)))^2", _morse_V, _morse_dV),
     "mff": AnalyticPotential(
-        "mff", "4 |q - 1/2|", lambda q: 4 * np.abs(q - 0.5), lambda q: 4 * np.sign(q - 0.5), _mff_exact
+        "mff", "4 |q - 1/2|", lambda q: 4 * np.abs(q - 0.5), lambda q: 4 * np.sign(q - 0.5),
+        _mff_exact, _mff_from_state,
     ),
     "smff": smff(20.0),
 }

@@ -18,30 +18,11 @@ MORSE = nh.PHYSICAL_POTENTIALS["morse"]
 
 
 def sho_exact(q0, p0, t):
-    """V = 8 (q - 1/2)²: q = 1/2 + A cos(4t + φ), p = -4 A sin(4t + φ), T = π/2."""
-    A, phi = math.hypot(q0 - 0.5, p0 / 4), math.atan2(-p0 / 4, q0 - 0.5)
-    return 0.5 + A * np.cos(4 * t + phi), -4 * A * np.sin(4 * t + phi)
+    return SHO.exact(t, q0, p0)
 
 
 def mff_exact(q0, p0, t):
-    """V = 4 |q - 1/2|: parabolas glued at q = 1/2; period sqrt(2E) (speed at the centre)."""
-    energy = 0.5 * p0**2 + 4 * abs(q0 - 0.5)
-    period = math.sqrt(2 * energy)
-    qs, ps = [], []
-    for tk in np.atleast_1d(t):
-        q, p, left = q0, p0, math.fmod(tk, period)
-        while True:
-            s = 1.0 if q > 0.5 or (q == 0.5 and p > 0) else -1.0  # side; acceleration -4 s
-            tau = (s * p + math.sqrt(p * p + 8 * abs(q - 0.5))) / 4  # time to reach 1/2
-            if tau <= 0:
-                tau = s * p / 2 if s * p > 0 else 0.0
-            if left < tau or tau == 0.0 and p == 0:
-                q, p = q + p * left - 2 * s * left**2, p - 4 * s * left
-                break
-            q, p, left = 0.5, p - 4 * s * tau, left - tau
-        qs.append(q)
-        ps.append(p)
-    return np.array(qs), np.array(ps)
+    return nh.PHYSICAL_POTENTIALS["mff"].exact(t, q0, p0)
 
 
 def true_loss(sol, q, p):
