@@ -1,5 +1,7 @@
 """DeepONet: DeepXDE's own ``DeepONetCartesianProd``, configured for (q, p)."""
 
+import torch as _torch
+
 from ._layers import _dde, split_inputs
 
 __all__ = ["DeepONet"]
@@ -19,7 +21,11 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
         hidden_layers: hidden layers of branch and trunk (paper: 3).
         branches: basis functions per output, l (paper: 10).
         activation: DeepXDE activation name (default "gelu").
-        initializer: DeepXDE initializer name (default "Glorot normal").
+        initializer: DeepXDE initializer name (default "Glorot normal", with zero
+            biases), or "torch" for PyTorch's own ``nn.Linear`` initialisation
+            (uniform weights and biases of scale 1/√fan_in).
+        trunk_output_activation: apply ``activation`` to the trunk's last layer too,
+            as DeepXDE does (default True). False leaves the trunk's basis linear.
         n_sensors: length m of V (default 100).
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
 
@@ -32,15 +38,30 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
 
     def __init__(self, hidden_size=128, hidden_layers=3, branches=10,
                  activation="gelu", initializer="Glorot normal", n_sensors=100,
-                 n_outputs=2):
+                 n_outputs=2, trunk_output_activation=True):
         hidden = [hidden_size] * hidden_layers
         width = n_outputs * branches
+        torch_init = initializer == "torch"
         super().__init__(
-            [n_sensors, *hidden, width], [1, *hidden, width], activation, initializer,
+            [n_sensors, *hidden, width], [1, *hidden, width], activation,
+            "Glorot normal" if torch_init else initializer,
             num_outputs=n_outputs,
             multi_output_strategy="split_both" if n_outputs > 1 else None)
+        if torch_init:
+            for layer in self.modules():
+                if isinstance(layer, _torch.nn.Linear):
+                    layer.reset_parameters()
+        if not trunk_output_activation:
+            # DeepXDE applies activation_trunk to the trunk's output only through this
+            # attribute; the trunk's hidden layers keep their own activation.
+            self.activation_trunk = _identity
+        self.trunk_output_activation = bool(trunk_output_activation)
         self.n_sensors = n_sensors
 
     def forward(self, inputs):
         split_inputs(inputs, self.n_sensors)
         return super().forward(inputs)
+
+
+def _identity(x):
+    return x
