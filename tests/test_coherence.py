@@ -52,14 +52,14 @@ def test_sensor_functions_take_potential_objects(shipped, batch):
 
 def test_neural_method_wraps_a_method_and_keeps_its_name(shipped):
     again = nh.NeuralMethod(shipped)
-    assert again.net is shipped.net and again.name == "deeponet"
+    assert again.net is shipped.net and again.name == "deeponet-alg1"
     assert as_network(again) is shipped.net
 
 
 def test_solve_takes_the_object_pretrained_returns(shipped):
     by_object = nh.solve("sho", nh.TIMES, method=shipped)
     by_name = nh.solve("sho", nh.TIMES, method="deeponet")
-    assert by_object.method == "deeponet" and by_object.kind == "neural"
+    assert by_object.method == "deeponet-alg1" and by_object.kind == "neural"
     assert np.array_equal(by_object.q, by_name.q)
     assert by_object.error_estimate == by_name.error_estimate
 

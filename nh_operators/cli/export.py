@@ -7,7 +7,7 @@ def _export(args):
     from ..solving import export_pretrained
 
     out = export_pretrained(args.run_dir, args.out, report=args.report, name=args.name,
-                            commands=args.command or [])
+                            commands=args.command or [], data=args.data)
     size = sum(f.stat().st_size for f in out.iterdir())
     print(f"exported {args.run_dir} to {out} ({size / 1e6:.2f} MB)")
 
@@ -34,6 +34,9 @@ def register(sub):
     ex.add_argument("--name", help="the model's name in the report (default: its model)")
     ex.add_argument("--command", action="append",
                     help="a command that regenerates it (repeatable, stored in metrics.json)")
+    ex.add_argument("--data", type=existing_file,
+                    help="the run's training .h5: writes domain.json, the inputs solve "
+                    "hands this network (fitted to its training rows)")
     ex.set_defaults(run=_export)
     ca = sub.add_parser("calibrate", help="calibrate a shipped model's error estimate for "
                         "solve (writes nh_operators/solving/weights/NAME/calibration.json)")

@@ -93,9 +93,12 @@ class NeuralMethod(Method):
             case).
         batch_size: potentials per forward pass.
         domain_check: warn (:class:`~nh_operators.potentials.OutOfDomainWarning`) when
-            an input lies outside the distribution the generator produces, and refuse
-            times beyond the training range [0, 2] (times must be finite and ≥ 0 in any
-            case).
+            an input lies outside ``domain``, and refuse times beyond the training range
+            [0, 2] (times must be finite and ≥ 0 in any case).
+        domain: the inputs the network was trained on, as bounds at the sensors
+            (:func:`~nh_operators.potentials.fit_domain`; default
+            :data:`~nh_operators.potentials.GENERATOR_DOMAIN`). Also the attribute
+            ``domain``.
 
     Example:
         >>> import nh_operators as nh
@@ -106,7 +109,7 @@ class NeuralMethod(Method):
 
     kind = "neural"
 
-    def __init__(self, net, name=None, *, batch_size=1000, domain_check=True):
+    def __init__(self, net, name=None, *, batch_size=1000, domain_check=True, domain=None):
         name = name or getattr(net, "name", None)
         net = as_network(net)  # a network, or another method holding one
         self.net = net
@@ -114,6 +117,7 @@ class NeuralMethod(Method):
         self.family = self.name
         self.batch_size = batch_size
         self.domain_check = domain_check
+        self.domain = domain
         self.device = str(next(net.parameters()).device)
 
     @classmethod
@@ -146,7 +150,7 @@ class NeuralMethod(Method):
         V = sensor_values(V)
         t = _network_times(self.name, t, self.domain_check)
         if self.domain_check:
-            _warn_out_of_domain(self.name, V)
+            _warn_out_of_domain(self.name, V, self.domain)
         return predict(self.net, V, t, batch_size=self.batch_size)
 
     def synchronize(self):
@@ -174,10 +178,10 @@ def _network_times(name, t, domain_check):
     return t
 
 
-def _warn_out_of_domain(name, V):
+def _warn_out_of_domain(name, V, domain=None):
     from ..potentials import OutOfDomainWarning, domain_violations
 
-    reasons = domain_violations(np.atleast_2d(V))
+    reasons = domain_violations(np.atleast_2d(V), domain)
     if reasons:
         warnings.warn(f"{name}: input outside the training distribution, the prediction "
                       f"may be inaccurate: {'; '.join(reasons)}", OutOfDomainWarning,

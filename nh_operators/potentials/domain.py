@@ -10,7 +10,8 @@ import numpy as np
 from .._constants import SENSORS, V0
 from .._sensors import sensor_values
 
-__all__ = ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations"]
+__all__ = ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations", "in_domain",
+           "fit_domain"]
 
 
 class OutOfDomainWarning(UserWarning):
@@ -61,22 +62,21 @@ def domain_violations(V, domain=None):
         raise ValueError(f"V must hold finite values at the {SENSORS.size} sensors, shape "
                          f"(100,) or (N, 100); got shape {V.shape}")
     rows = np.atleast_2d(V)
+    stats = _row_stats(rows)
     lo, hi = d["V_range"]
-    width = SENSORS[1] - SENSORS[0]
+    source = d.get("source", "the generator")
     checks = [
-        (rows.min(axis=1), lambda x: x < lo - 1e-9, np.argmin,
-         f"has values below {lo:g} (the generator keeps V in [{lo:g}, {hi:g}])", "min V"),
-        (rows.max(axis=1), lambda x: x > hi + 1e-9, np.argmax,
-         f"has values above {hi:g} (the generator keeps V in [{lo:g}, {hi:g}])", "max V"),
-        (rows.min(axis=1), lambda x: x > d["min_V_at_most"], np.argmax,
-         f"never dips below {d['min_V_at_most']:.3g} (every generator potential does: too "
-         "flat)", "min V"),
-        (np.abs(np.diff(rows, axis=1)).max(axis=1) / width, lambda x: x > d["max_slope"],
-         np.argmax, f"is steeper than the generator's max |V'| = {d['max_slope']:g}",
-         "max |ΔV/Δq|"),
-        (np.abs(np.diff(rows, 2, axis=1)).max(axis=1) / width**2,
-         lambda x: x > d["max_curvature"], np.argmax,
-         f"curves more sharply than the training data (|V''| ≤ {d['max_curvature']:g} "
+        (stats["min"], lambda x: x < lo - 1e-9, np.argmin,
+         f"has values below {lo:g} ({source} keeps V in [{lo:g}, {hi:g}])", "min V"),
+        (stats["max"], lambda x: x > hi + 1e-9, np.argmax,
+         f"has values above {hi:g} ({source} keeps V in [{lo:g}, {hi:g}])", "max V"),
+        (stats["min"], lambda x: x > d["min_V_at_most"], np.argmax,
+         f"never dips below {d['min_V_at_most']:.3g} (every potential of {source} does: "
+         "too flat)", "min V"),
+        (stats["slope"], lambda x: x > d["max_slope"], np.argmax,
+         f"is steeper than {source}'s max |V'| = {d['max_slope']:g}", "max |ΔV/Δq|"),
+        (stats["curvature"], lambda x: x > d["max_curvature"], np.argmax,
+         f"curves more sharply than {source} (|V''| ≤ {d['max_curvature']:g} "
          "at the sensors)", "max |Δ²V/Δq²|"),
     ]
     messages = []
@@ -90,3 +90,78 @@ def domain_violations(V, domain=None):
             messages.append(f"{where} {text}: {what} = {values[worst]:.4g}"
                             + ("" if V.ndim == 1 else f" in row {worst}"))
     return messages
+
+
+def _row_stats(rows):
+    """Per row of sensor values (N, 100): min, max, max |ΔV/Δq|, max |Δ²V/Δq²|."""
+    width = SENSORS[1] - SENSORS[0]
+    return {"min": rows.min(axis=1), "max": rows.max(axis=1),
+            "slope": np.abs(np.diff(rows, axis=1)).max(axis=1) / width,
+            "curvature": np.abs(np.diff(rows, 2, axis=1)).max(axis=1) / width**2}
+
+
+def in_domain(V, domain=None):
+    """Which rows of sensor values pass every check of :func:`domain_violations`.
+
+    Args:
+        V: sensor values, shape (N, 100) (or (100,)), finite.
+        domain: bounds as in :data:`GENERATOR_DOMAIN` (the default) or from
+            :func:`fit_domain`.
+
+    Returns:
+        bool array (N,) (a 0-d bool for one row).
+
+    Example:
+        >>> in_domain(np.stack([8 * (SENSORS - 0.5) ** 2, 2 - 88 * SENSORS * (1 - SENSORS)]))
+        array([ True, False])
+    """
+    d = GENERATOR_DOMAIN if domain is None else domain
+    V = np.asarray(V, dtype=np.float64)
+    stats = _row_stats(np.atleast_2d(V))
+    lo, hi = d["V_range"]
+    ok = ((stats["min"] >= lo - 1e-9) & (stats["max"] <= hi + 1e-9)
+          & (stats["min"] <= d["min_V_at_most"]) & (stats["slope"] <= d["max_slope"])
+          & (stats["curvature"] <= d["max_curvature"]))
+    return ok if V.ndim == 2 else ok[0]
+
+
+def fit_domain(V, *, slack=0.25, source="its training data"):
+    """A domain fitted to training data: the bounds its sensor values stay within.
+
+    Each bound is the training set's extreme widened by ``slack``: the V range by
+    ``slack`` × 0.1 of its width on each side, the slope and curvature bounds by a
+    factor 1 + ``slack``, and ``min_V_at_most`` (the highest minimum of a row) by
+    ``slack`` × its distance to V0, capped at V0. A network trained on these rows has
+    seen nothing beyond them.
+
+    Args:
+        V: the training rows' sensor values, shape (N, 100), N ≥ 1.
+        slack: relative widening (≥ 0; default 0.25).
+        source: how messages of :func:`domain_violations` name the data.
+
+    Returns:
+        dict with the keys of :data:`GENERATOR_DOMAIN`, plus ``source`` and ``rows``.
+
+    Raises:
+        ValueError: for a wrong shape, non-finite values or a negative slack.
+
+    Example:
+        >>> d = fit_domain(np.stack([8 * (SENSORS - 0.5) ** 2, 2 - 8 * SENSORS * (1 - SENSORS)]))
+        >>> [round(v, 2) for v in d["V_range"]], round(d["min_V_at_most"], 2)
+        ([-0.05, 2.05], 0.5)
+    """
+    V = np.asarray(V, dtype=np.float64)
+    if V.ndim != 2 or V.shape[1] != SENSORS.size or len(V) == 0 or not np.all(np.isfinite(V)):
+        raise ValueError(f"V must hold finite values at the {SENSORS.size} sensors, shape "
+                         f"(N, 100) with N ≥ 1; got shape {V.shape}")
+    if not slack >= 0:
+        raise ValueError(f"slack must be ≥ 0, got {slack!r}")
+    stats = _row_stats(V)
+    lo, hi = float(stats["min"].min()), float(stats["max"].max())
+    pad = 0.1 * slack * (hi - lo)
+    highest_min = float(stats["min"].max())
+    return {"V_range": (lo - pad, hi + pad),
+            "max_slope": (1 + slack) * float(stats["slope"].max()),
+            "min_V_at_most": min(V0, highest_min + slack * max(V0 - highest_min, 0.0)),
+            "max_curvature": (1 + slack) * float(stats["curvature"].max()),
+            "source": source, "rows": int(len(V))}

@@ -12,6 +12,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "contract": ["Case", "contract_cases", "measure_contract", "network_estimates"],
     "estimate": ["CALIBRATION_QUANTILE", "calibrate", "raw_estimate", "residuals", "spline_rows"],
     "many": ["ManySolution", "solve_many"],
-    "catalog": ["CALIBRATION", "WEIGHTS", "available_pretrained"],
+    "catalog": ["CALIBRATION", "DOMAIN", "WEIGHTS", "available_pretrained", "network_domain",
+                "resolve_pretrained"],
     "shipped": ["export_pretrained", "pretrained"],
 })

@@ -6,7 +6,8 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
 1. Without ``tol``: the classical solver at :data:`DEFAULT_TOL`.
 2. A shipped network is a candidate when it has a calibration
    (``weights/NAME/calibration.json``, :func:`calibrate_pretrained`), the input is in
-   its domain (the sensor values inside what the generator produces:
+   its domain (the sensor values inside the bounds of its own training rows,
+   ``weights/NAME/domain.json``, else the generator's:
    :func:`~nh_operators.domain_violations`; the times inside [0, 2]), and it is expected
    to be cheaper: with P the share of its calibration set whose calibrated estimate met
    ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
@@ -31,7 +32,7 @@ import numpy as np
 
 from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
-from .catalog import CALIBRATION, WEIGHTS, available_pretrained
+from .catalog import CALIBRATION, WEIGHTS, available_pretrained, network_domain, resolve_pretrained
 from .estimate import acceptance_rate, raw_estimate, sensor_force
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
@@ -162,10 +163,11 @@ def _classical_seconds(calibration, tol, kind="bspline"):
 
 @functools.lru_cache(maxsize=256)
 def _ranked(tol, kind, calibrations):
-    """(best network or None, its expected seconds and share, notes) for ``tol`` and a
-    kind of input (:data:`_TIMINGS`); cached per tolerance, kind and calibration
+    """(candidates, notes) for ``tol`` and a kind of input (:data:`_TIMINGS`): the
+    networks expected to be cheaper than the classical solve, as (name, expected
+    seconds, share) cheapest first; cached per tolerance, kind and calibration
     (``calibrations``: ids, so a new one is seen)."""
-    best, notes = None, []
+    candidates, notes = [], []
     for name in _networks():
         cal = _calibration(name)
         if cal is None:
@@ -177,9 +179,9 @@ def _ranked(tol, kind, calibrations):
         if expected >= t_cls:
             notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
                          f"expected {1e6 * expected:.0f} µs against {1e6 * t_cls:.0f} µs")
-        elif best is None or expected < best[1]:
-            best = (name, expected, share)
-    return best, notes
+        else:
+            candidates.append((name, expected, share))
+    return tuple(sorted(candidates, key=lambda c: c[1])), notes
 
 
 @functools.lru_cache(maxsize=1)
@@ -188,20 +190,25 @@ def _networks():
 
 
 def _choose(tol, values, t, kind):
-    """The network to try first, or None, with the reason in words. ``values()`` gives
-    the sensor values; the costs are weighed first, as they need no evaluation of V."""
-    from ..potentials import domain_violations
+    """The network to try first, or None, with the reason in words: the cheapest
+    candidate whose domain (:func:`~nh_operators.solving.catalog.network_domain`) holds
+    the input. ``values()`` gives the sensor values; the costs are weighed first, as they
+    need no evaluation of V."""
+    from ..potentials import domain_violations, in_domain
 
-    best, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()))
-    if best is None:
+    candidates, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()))
+    if not candidates:
         return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
         return None, "times outside [0, 2], where the networks were trained"
-    outside = domain_violations(values())
-    if outside:
-        return None, "outside the networks' domain: " + outside[0]
-    return best[0], (f"{best[0]} expected cheapest: its estimate met tol on "
-                     f"{best[2]:.0%} of its calibration set")
+    V = values()
+    for name, _, share in candidates:
+        if in_domain(V, network_domain(name)):
+            return name, (f"{name} expected cheapest on its domain: its estimate met tol "
+                          f"on {share:.0%} of its calibration set")
+    first = candidates[0][0]
+    return None, (f"outside the domain of every network expected to be cheaper, e.g. "
+                  f"{first}'s: {domain_violations(V, network_domain(first))[0]}")
 
 
 def solve(potential, t, *, tol=None, method="auto", dV=None, q0=0.0, p0=0.0):
@@ -281,6 +288,11 @@ def _checked(method, tol):
     networks = _networks()
     classical = {"classical": "rk4", **{m: m for m in ORDERS}}
     if method != "auto" and method not in classical and method not in networks:
+        try:
+            method = resolve_pretrained(method)  # "traonet" means "traonet-alg1"
+        except ValueError:
+            pass
+    if method != "auto" and method not in classical and method not in networks:
         raise ValueError(f"unknown method {method!r}; choose 'auto', 'classical', an "
                          f"integrator {sorted(ORDERS)} or a shipped model {list(networks)}")
     return method, networks, classical
@@ -336,7 +348,7 @@ def _forced_network(name, pot, information, t, tol, start):
 
     if t.max() > TIMES[-1] + 1e-12:
         raise ValueError(f"{name} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
-    for message in domain_violations(_sensor_values(pot, information)):
+    for message in domain_violations(_sensor_values(pot, information), network_domain(name)):
         warnings.warn(f"{name}: {message}", OutOfDomainWarning, stacklevel=4)
     q, p, estimate = neural_solve(name, pot, information, t)
     if tol is not None and estimate > tol:

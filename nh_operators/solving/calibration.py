@@ -43,23 +43,25 @@ def _median_seconds(fn, items, repeats=3):
 
 @functools.lru_cache(maxsize=4)
 def _ood_cases(n, seed):
-    """In-domain out-of-distribution potentials with their references on TIMES."""
-    from ..potentials import domain_violations, ood_potentials
+    """Out-of-distribution potentials with their references on TIMES."""
+    from ..potentials import ood_potentials
     from ..solvers import reference_solve
 
-    cases = []
-    for pot in ood_potentials(n, seed):
-        if not domain_violations(pot.V(SENSORS)):
-            cases.append((pot, *reference_solve(pot, TIMES)))
-    return cases
+    return [(pot, *reference_solve(pot, TIMES)) for pot in ood_potentials(n, seed)]
 
 
 def ood_factor(name, n, seed, quantile):
     """The ``quantile`` of L_tot / (E + D) for model ``name`` on the out-of-distribution
-    potentials (:mod:`nh_operators.potentials.ood`) that pass the domain check, i.e. those ``auto``
-    would give the network; returns (factor, how many)."""
+    potentials (:mod:`nh_operators.potentials.ood`) inside its domain
+    (:func:`~nh_operators.solving.catalog.network_domain`), i.e. those ``auto`` would
+    give the network; returns (factor, how many)."""
+    from ..potentials import in_domain
+    from .catalog import network_domain
+
     ratios = []
     for pot, q_ref, p_ref in _ood_cases(n, seed):
+        if not in_domain(pot.V(SENSORS), network_domain(name)):
+            continue
         q, p, raw = neural_raw(name, pot, "exact V")
         true = float(loss_per_sample(q[0], p[0], q_ref, p_ref)["L_tot"])
         ratios.append(true / raw if raw > 0 else np.inf)
@@ -93,6 +95,9 @@ def calibrate_pretrained(name, dataset, *, n_timing=30, n_ood=400, ood_seed=2719
     from ..evaluation import device_info
     from .catalog import WEIGHTS
 
+    from .catalog import resolve_pretrained
+
+    name = resolve_pretrained(name)
     if not hasattr(dataset, "V"):
         dataset = load_dataset(dataset)
     model = _model(name)

@@ -1,24 +1,77 @@
-"""The shipped weights on disk: where they are and which models there are (torch-free)."""
+"""The shipped weights on disk: where they are, which models there are, and the domain
+of each (torch-free).
 
+A shipped model is a folder ``weights/NAME``. Its name says the data it was trained on:
+``MODEL-paper`` on ``paper-standard`` (the distribution of the paper's tables) and
+``MODEL-alg1`` on ``alg1-standard`` (Algorithm 1 as printed). A bare model name
+(``"traonet"``) means its ``-alg1`` weights, as earlier releases shipped.
+"""
+
+import functools
+import json
 from pathlib import Path
 
+from ..potentials import GENERATOR_DOMAIN
 from ..training.files import CHECKPOINT
 
-__all__ = ["WEIGHTS", "CALIBRATION", "available_pretrained"]
+__all__ = ["WEIGHTS", "CALIBRATION", "DOMAIN", "available_pretrained", "resolve_pretrained",
+           "network_domain"]
 
 #: Folder of the shipped weights, one sub-folder per model.
 WEIGHTS = Path(__file__).parent / "weights"
 #: File of a shipped model's calibration, next to its weights.
 CALIBRATION = "calibration.json"
+#: File of a shipped model's domain (:func:`~nh_operators.potentials.fit_domain` of its
+#: training rows), next to its weights.
+DOMAIN = "domain.json"
+#: What a bare model name stands for.
+DEFAULT_SUFFIX = "-alg1"
 
 
 def available_pretrained():
     """Names of the shipped models, sorted.
 
     Example:
-        >>> "deeponet" in available_pretrained()
+        >>> "traonet-paper" in available_pretrained()
         True
     """
     if not WEIGHTS.is_dir():
         return []
     return sorted(p.name for p in WEIGHTS.iterdir() if (p / CHECKPOINT).is_file())
+
+
+def resolve_pretrained(name):
+    """The shipped folder a name means: itself, or for a bare model name its ``-alg1``
+    weights; case does not matter.
+
+    Raises:
+        ValueError: for a name that is not shipped (listing the available ones).
+
+    Example:
+        >>> resolve_pretrained("TraONet"), resolve_pretrained("traonet-paper")
+        ('traonet-alg1', 'traonet-paper')
+    """
+    names = available_pretrained()
+    key = name.lower() if isinstance(name, str) else name
+    if key in names:
+        return key
+    if isinstance(key, str) and key + DEFAULT_SUFFIX in names:
+        return key + DEFAULT_SUFFIX
+    raise ValueError(f"no pretrained model {name!r}; available: {names or 'none'}")
+
+
+@functools.lru_cache(maxsize=None)
+def network_domain(name):
+    """The inputs shipped model ``name`` was trained on, as bounds at the sensors: its
+    ``domain.json``, else :data:`~nh_operators.potentials.GENERATOR_DOMAIN`.
+
+    Example:
+        >>> network_domain("traonet-paper")["source"]
+        'paper-standard (training rows)'
+    """
+    path = WEIGHTS / name / DOMAIN
+    if not path.is_file():
+        return GENERATOR_DOMAIN
+    domain = json.loads(path.read_text())
+    domain["V_range"] = tuple(domain["V_range"])
+    return domain

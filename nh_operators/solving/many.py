@@ -4,8 +4,8 @@ A scene (an animation, a parameter sweep, an ensemble) is N rows, each a potenti
 its own starting state (q0, p0) and its own times. :func:`solve_many` chooses per row,
 as :func:`~nh_operators.solve` would for that row alone: with ``method="auto"`` and a
 tolerance, a shipped network is tried on the rows where :func:`solve` would try it (the
-state (0, 0), times in [0, 2], sensor values inside the generator's domain), its
-prediction kept where its own estimate meets the tolerance, and every other row is
+state (0, 0), times in [0, 2], sensor values inside its domain), each row going to
+the cheapest network whose domain holds it, its prediction kept where its own estimate meets the tolerance, and every other row is
 solved classically — all classical rows together, in one parallel numba kernel per
 substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a progress
 bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
@@ -19,12 +19,13 @@ import numpy as np
 
 from .._backend import single_threaded
 from .._constants import SENSORS, TIMES
-from ..potentials import GENERATOR_DOMAIN, BoundedPotential, check_bounded
+from ..potentials import BoundedPotential, check_bounded, in_domain
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
 from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
                          _solve)
+from .catalog import network_domain
 from .estimate import raw_estimate, sensor_force
 
 __all__ = ["CHUNK", "ManySolution", "solve_many"]
@@ -61,18 +62,6 @@ class ManySolution:
     seconds: float
     tol: float = None
     tried: list = field(default_factory=list)
-
-
-def _in_domain(V):
-    """Rows of sensor values (N, 100) inside :data:`GENERATOR_DOMAIN` (the checks of
-    :func:`~nh_operators.domain_violations`, per row)."""
-    d = GENERATOR_DOMAIN
-    width = SENSORS[1] - SENSORS[0]
-    lo, hi = d["V_range"]
-    return ((V.min(axis=1) >= lo - 1e-9) & (V.max(axis=1) <= hi + 1e-9)
-            & (V.min(axis=1) <= d["min_V_at_most"])
-            & (np.abs(np.diff(V, axis=1)).max(axis=1) / width <= d["max_slope"])
-            & (np.abs(np.diff(V, 2, axis=1)).max(axis=1) / width**2 <= d["max_curvature"]))
 
 
 def _bar(total, progress):
@@ -196,21 +185,23 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
                              f"starts at ({q0s[bad]:g}, {p0s[bad]:g})")
         if t.max() > TIMES[-1] + 1e-12:
             raise ValueError(f"{method} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
-        name = method
+        names = [method]
     elif method == "auto" and tol is not None:
         kind = "sensors" if V is not None else "bspline"
-        best = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks))[0]
-        name = best[0] if best is not None else None
+        candidates = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks))[0]
+        names = [c[0] for c in candidates]
     else:
-        name = None
-    if name is not None:
+        names = []
+    if names:
         values = V if V is not None else potentials.V(SENSORS)
         times_ok = t.max(axis=-1) <= TIMES[-1] + 1e-12
-        ok = rest & np.broadcast_to(times_ok, (n,))
-        if method == "auto":
-            ok &= _in_domain(values)
-        rows = np.flatnonzero(ok)
-        if rows.size:
+        free = rest & np.broadcast_to(times_ok, (n,))
+        for name in names:  # cheapest first; each row goes to one network at most
+            ok = free & in_domain(values, network_domain(name)) if method == "auto" else free
+            rows = np.flatnonzero(ok)
+            free = free & ~ok
+            if not rows.size:
+                continue
             qn, pn, est = _network_rows(name, values, None if V is not None else src, t, rows,
                                         target)
             take = est <= target if method == "auto" else np.ones(rows.size, dtype=bool)

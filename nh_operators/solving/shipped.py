@@ -18,10 +18,11 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from ..training import CHECKPOINT, CONFIG, HISTORY, load_checkpoint, write_atomic
-from .catalog import WEIGHTS, available_pretrained
+from .catalog import DOMAIN, WEIGHTS, network_domain, resolve_pretrained
 
 __all__ = ["pretrained", "export_pretrained"]
 
@@ -55,19 +56,17 @@ def pretrained(name, *, device="cpu", batch_size=1000):
     """
     from ..evaluation import NeuralMethod
 
-    names = available_pretrained()
-    name = name.lower() if isinstance(name, str) else name  # "TraONet" works too
-    if name not in names:
-        raise ValueError(f"no pretrained model {name!r}; available: {names or 'none'}")
+    name = resolve_pretrained(name)  # "TraONet" is "traonet-alg1"
     folder = WEIGHTS / name
     method = NeuralMethod.from_run(folder, device=device, name=name, batch_size=batch_size)
+    method.domain = network_domain(name)
     metrics = folder / METRICS
     method.metrics = json.loads(metrics.read_text()) if metrics.is_file() else {}
     method.shipped = name  # solve(..., method=this) uses the shipped calibration of name
     return method
 
 
-def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=()):
+def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=(), data=None):
     """Write a shippable model folder from a run directory.
 
     Args:
@@ -78,13 +77,17 @@ def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=()):
             the run; its entry for the model becomes ``metrics.json``.
         name: the model's key in the report (default: the run's model name).
         commands: the command lines that regenerate the weights and the metrics.
+        data: the run's training dataset (.h5). Its training rows, split as the run split
+            them, give ``domain.json`` (:func:`~nh_operators.potentials.fit_domain`):
+            ``solve`` then uses the network only on inputs like them.
 
     Returns:
         Path of the folder.
 
     Raises:
         FileNotFoundError: if the run has no checkpoint.
-        ValueError: if the report has no entry for the model.
+        ValueError: if the report has no entry for the model, or ``data`` is not the
+            dataset the run trained on (checksum).
     """
     state = load_checkpoint(run_dir)
     out = Path(out_dir)
@@ -106,4 +109,32 @@ def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=()):
         entry = {k: v for k, v in entry.items() if k not in ("run_dir", "config")}
         metrics["evaluation"] = entry
     write_atomic(out / METRICS, (json.dumps(metrics, indent=2) + "\n").encode())
+    if data is not None:
+        domain = training_domain(data, state)
+        write_atomic(out / DOMAIN, (json.dumps(domain, indent=2) + "\n").encode())
     return out
+
+
+def training_domain(data, state):
+    """:func:`~nh_operators.potentials.fit_domain` of the rows a run trained on.
+
+    Args:
+        data: path of the run's dataset.
+        state: the run's checkpoint dict (its config and ``data_checksum``).
+
+    Raises:
+        ValueError: if ``data`` is not the dataset of the checkpoint.
+    """
+    from ..data import load_dataset
+    from ..potentials import fit_domain
+
+    dataset = load_dataset(data)
+    if state.get("data_checksum") not in (None, dataset.checksum):
+        raise ValueError(f"{data} is not the dataset this run trained on (checksum "
+                         f"{dataset.checksum} against the checkpoint's "
+                         f"{state['data_checksum']})")
+    train, _ = dataset.split_indices(state["config"].get("train_fraction", 0.8))
+    domain = fit_domain(dataset.V[np.sort(train)],
+                        source=f"{Path(data).stem} (training rows)")
+    domain["V_range"] = list(domain["V_range"])
+    return domain

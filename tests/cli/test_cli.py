@@ -75,7 +75,7 @@ def test_predict_prints_the_table_and_writes_the_figure(tmp_path, capsys):
     assert main(["predict", "--model", "deeponet", "--potential", "8*(q-0.5)**2",
                  "--times", "0.5", "1.0", "1.5", "--out", str(fig)]) == 0
     out = capsys.readouterr().out
-    assert "V(q) = 8*(q-0.5)**2" in out and "method: deeponet (neural; forced)" in out
+    assert "V(q) = 8*(q-0.5)**2" in out and "method: deeponet-alg1 (neural; forced)" in out
     rows = [line.split() for line in out.splitlines() if re.match(r"\s+\d", line)]
     assert [r[0] for r in rows] == ["0.5000", "1.0000", "1.5000"]
     # the SHO in disguise: q(t) = (1 - cos 4t) / 2; DeepONet is within a few 1e-2

@@ -12,7 +12,7 @@ def model():
 
 
 @pytest.mark.parametrize("t, message", [
-    ([5.0], r"deeponet was trained on t ∈ \[0, 2\] and is not asked beyond it \(got t = 5\)"),
+    ([5.0], r"deeponet-alg1 was trained on t ∈ \[0, 2\] and is not asked beyond it \(got t = 5\)"),
     ([1e300], r"\(got t = 1e\+300\)"),
     ([-1.0], "times must be finite and ≥ 0, got -1.0"),
     ([np.nan], "times must be finite and ≥ 0, got nan"),

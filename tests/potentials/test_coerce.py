@@ -13,7 +13,7 @@ def test_names_are_case_insensitive():
     for name in ("SHO", "Sho", " double_WELL "):
         pot, info = as_potential(name)
         assert pot is nh.PHYSICAL_POTENTIALS[name.strip().lower()] and info == "exact V"
-    assert nh.pretrained("DeepONet").name == "deeponet"
+    assert nh.pretrained("DeepONet").name == "deeponet-alg1"
 
 
 def test_a_singular_force_is_refused_up_front_and_names_the_wall():

@@ -7,7 +7,7 @@ from solver_helpers import generator_sensor_values
 
 import nh_operators as nh
 from nh_operators.evaluation import extreme_potentials
-from nh_operators.potentials import GENERATOR_DOMAIN, domain_violations
+from nh_operators.potentials import GENERATOR_DOMAIN, domain_violations, fit_domain, in_domain
 
 SENSOR_VALUES = {name: pot.V(nh.SENSORS) for name, pot in extreme_potentials().items()}
 
@@ -29,7 +29,7 @@ def test_extreme_cases_are_reported():
     assert reasons["deep_well"][0].startswith("V has values below -2")
     assert "min V = -99.9" in reasons["deep_well"][0]
     assert reasons["near_flat"] == [f"V never dips below {GENERATOR_DOMAIN['min_V_at_most']:.3g} "
-                                    "(every generator potential does: too flat): min V = 1.99"]
+                                    "(every potential of the generator does: too flat): min V = 1.99"]
     batch = np.stack([SENSOR_VALUES["mff"], SENSOR_VALUES["deep_well"], SENSOR_VALUES["mff"]])
     (message,) = [m for m in domain_violations(batch) if "below -2" in m]
     assert message.startswith("V[1] (1 of 3 rows) has values below -2") and "in row 1" in message
@@ -37,3 +37,40 @@ def test_extreme_cases_are_reported():
         domain_violations(np.zeros(99))
 
 
+
+
+def test_in_domain_agrees_with_the_messages_row_by_row():
+    rows = np.stack(list(SENSOR_VALUES.values()) + [generator_sensor_values()[0]])
+    want = np.array([domain_violations(V) == [] for V in rows])
+    assert want.any() and not want.all()
+    np.testing.assert_array_equal(in_domain(rows), want)
+    assert in_domain(rows[0]) == want[0]
+
+
+def test_a_fitted_domain_holds_its_rows_and_widens_each_bound_by_the_slack():
+    q = nh.SENSORS
+    rows = np.stack([2 - 8 * q * (1 - q), 2 - 4 * q * (1 - q)])  # min V 0 and 1 (at q = 1/2)
+    d = fit_domain(rows, slack=0.5, source="two parabolas")
+    h = q[1] - q[0]
+    steepest = np.abs(np.diff(rows[0])).max() / h
+    assert d["max_slope"] == pytest.approx(1.5 * steepest, rel=1e-12)
+    assert d["max_curvature"] == pytest.approx(1.5 * 16, rel=1e-9)  # |V''| = 16 exactly
+    lowest_min = rows[1].min()
+    assert d["min_V_at_most"] == pytest.approx(lowest_min + 0.5 * (2 - lowest_min))
+    assert d["V_range"][0] == pytest.approx(rows.min() - 0.05 * (2 - rows.min()))
+    assert d["rows"] == 2 and in_domain(rows, d).all()
+    flat = 2 - 1 * q * (1 - q)  # min V 1.75: flatter than any training row, beyond the slack
+    steep = 2 - 12.5 * q * (1 - q)  # slope 12.4 > 1.5 × 7.9 and curvature 25 > 24
+    assert not in_domain(np.stack([flat, steep]), d).any()
+    (message,) = domain_violations(flat, d)
+    assert "every potential of two parabolas does: too flat" in message
+    assert fit_domain(rows, slack=0)["max_slope"] == pytest.approx(steepest)
+
+
+def test_fit_domain_rejects_bad_rows_and_slack():
+    with pytest.raises(ValueError, match="shape \\(N, 100\\) with N ≥ 1"):
+        fit_domain(np.zeros((0, 100)))
+    with pytest.raises(ValueError, match="finite values"):
+        fit_domain(np.full((2, 100), np.nan))
+    with pytest.raises(ValueError, match="slack must be ≥ 0"):
+        fit_domain(np.zeros((2, 100)), slack=-1)

@@ -37,7 +37,7 @@ def test_solve_meets_the_contract_on_these_inputs(cases):
 
 
 def test_network_estimates_count_false_acceptances(cases):
-    rows = network_estimates(cases, ["deeponet"], [1e3, 1e-12])
+    rows = network_estimates(cases, ["deeponet-alg1"], [1e3, 1e-12])
     loose, tight = rows[0], rows[1]
     assert loose["accepted"] == 1.0 and loose["false"] == 0.0  # everything is below 1e3
     assert tight["accepted"] == 0.0 and np.isnan(tight["false"])

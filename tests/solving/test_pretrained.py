@@ -5,11 +5,14 @@ import pytest
 
 import nh_operators as nh
 from nh_operators.cli import main
+from nh_operators.potentials import in_domain
 from nh_operators.solving import (
     WEIGHTS,
     available_pretrained,
     export_pretrained,
+    network_domain,
     pretrained,
+    resolve_pretrained,
 )
 from nh_operators.training import load_checkpoint
 
@@ -17,12 +20,13 @@ from nh_operators.training import load_checkpoint
 @pytest.mark.parametrize("name", available_pretrained())
 def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
     model = pretrained(name)
-    assert model.name == name and model.metrics["model"] == name
+    family = name.split("-")[0]  # traonet-paper is a traonet
+    assert model.name == name and model.metrics["model"] == model.config["model"] == family
     shipped = load_checkpoint(WEIGHTS / name)
     assert model.metrics["data_checksum"] == shipped["data_checksum"]
     assert shipped["data_checksum"].startswith("sha256:") and "optimizer" not in shipped
     commands = model.metrics["commands"]
-    assert any(c.startswith(f"nh-operators train --model {name}") for c in commands)
+    assert any(c.startswith(f"nh-operators train --model {family}") for c in commands)
     assert any(c.startswith("nh-operators evaluate") for c in commands)
     V = nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS)[None]
     q, p = model(V, nh.TIMES)
@@ -46,7 +50,7 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     from nh_operators.data import generate_dataset
     from nh_operators.solving import calibrate_pretrained
 
-    path = WEIGHTS / "deeponet" / "calibration.json"
+    path = WEIGHTS / "deeponet-alg1" / "calibration.json"
     before = path.read_bytes()
     cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
                                n_timing=2, n_ood=12, write=False)
@@ -88,3 +92,35 @@ def test_export_round_trip_through_the_cli(tmp_path, capsys):
     with pytest.raises(ValueError, match="has no entry for 'deeponet'"):
         (tmp_path / "r.json").write_text(json.dumps({"methods": {}}))
         export_pretrained(run, out, report=tmp_path / "r.json")
+
+    # with its training data, the export fits the network's domain to the training rows
+    assert main(["export", "--run", str(run), "--out", str(out), "--data", str(data)]) == 0
+    domain = json.loads((out / "domain.json").read_text())
+    dataset = nh.load_dataset(data)
+    train, val = dataset.split_indices()
+    assert domain["rows"] == len(train) == 16 and domain["source"] == "d (training rows)"
+    assert in_domain(dataset.V[train], {**domain, "V_range": tuple(domain["V_range"])}).all()
+    steepest = np.abs(np.diff(dataset.V[train], axis=1)).max() * 99
+    assert domain["max_slope"] == pytest.approx(1.25 * steepest)
+    other = tmp_path / "other.h5"
+    assert main(["generate", "--size", "20", "--seed", "6", "--out", str(other), "--quiet"]) == 0
+    with pytest.raises(ValueError, match="not the dataset this run trained on"):
+        export_pretrained(run, out, data=other)
+
+
+def test_a_bare_model_name_means_its_algorithm_1_weights():
+    assert resolve_pretrained("TraONet") == "traonet-alg1"
+    assert pretrained("deeponet").name == "deeponet-alg1"
+    sol = nh.solve("sho", [0.5], method="deeponet", tol=1.0)
+    assert sol.method == "deeponet-alg1" and sol.kind == "neural"
+    with pytest.raises(ValueError, match="no pretrained model 'traonet-x'"):
+        resolve_pretrained("traonet-x")
+
+
+@pytest.mark.parametrize("name", available_pretrained())
+def test_a_shipped_domain_holds_the_physical_potentials_it_was_scored_on(name):
+    domain = network_domain(name)
+    assert pretrained(name).domain == domain
+    if (WEIGHTS / name / "domain.json").is_file():
+        assert domain["rows"] == 8000 and "training rows" in domain["source"]
+    assert in_domain(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS), domain)

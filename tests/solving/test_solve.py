@@ -43,8 +43,8 @@ def test_forced_integrator_and_callable_input():
 
 
 def test_forced_network_interpolates_its_grid_prediction():
-    sol = nh.solve("sho", nh.TIMES[::7], method="deeponet")
-    net = nh.pretrained("deeponet").net
+    sol = nh.solve("sho", nh.TIMES[::7], method="deeponet-alg1")
+    net = nh.pretrained("deeponet-alg1").net
     q, p = predict(net, SHO.V(nh.SENSORS), nh.TIMES)
     np.testing.assert_allclose(sol.q, q[::7], atol=1e-12)
     np.testing.assert_allclose(sol.p, p[::7], atol=1e-12)
@@ -55,12 +55,12 @@ def test_forced_network_interpolates_its_grid_prediction():
 
 def test_forced_network_warns_when_its_estimate_exceeds_tol_or_the_input_is_outside():
     with pytest.warns(UserWarning, match="exceeds tol"):
-        nh.solve("sho", T, tol=1e-9, method="deeponet")
+        nh.solve("sho", T, tol=1e-9, method="deeponet-alg1")
     deep = 2 - 20 * nh.SENSORS * (1 - nh.SENSORS)  # min V = -3, below the generator's -2
     with pytest.warns(nh.OutOfDomainWarning, match="below -2"):
-        nh.solve(deep, T, method="deeponet")
+        nh.solve(deep, T, method="deeponet-alg1")
     with pytest.raises(ValueError, match=r"t ∈ \[0, 2\]"):
-        nh.solve("sho", [0.5, 2.5], method="deeponet")
+        nh.solve("sho", [0.5, 2.5], method="deeponet-alg1")
 
 
 def fake_calibration(factor, neural_seconds, estimates):
@@ -71,11 +71,11 @@ def fake_calibration(factor, neural_seconds, estimates):
 
 def test_auto_uses_a_network_expected_to_be_cheaper_and_falls_back_when_its_estimate_fails(
         monkeypatch):
-    model = solve_module._model("deeponet")
+    model = solve_module._model("deeponet-alg1")
     monkeypatch.setattr(model, "calibration", fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7]))
-    _, _, estimate = solve_module.neural_solve("deeponet", SHO, "exact V", T)
+    _, _, estimate = solve_module.neural_solve("deeponet-alg1", SHO, "exact V", T)
     loose = nh.solve("sho", T, tol=10 * estimate)
-    assert loose.kind == "neural" and loose.method == "deeponet"
+    assert loose.kind == "neural" and loose.method == "deeponet-alg1"
     assert loose.error_estimate == pytest.approx(estimate)
     assert "expected cheapest" in loose.reason
     tight = nh.solve("sho", T, tol=estimate / 10)
@@ -104,18 +104,18 @@ def test_solve_restores_thread_counts():
     before = torch.get_num_threads(), numba.get_num_threads()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        nh.solve("sho", T, method="deeponet")
+        nh.solve("sho", T, method="deeponet-alg1")
     nh.solve("sho", T, tol=1e-6)
     assert (torch.get_num_threads(), numba.get_num_threads()) == before
 
 
 def test_the_classical_cost_weighed_is_the_one_of_the_input_kind(monkeypatch, pots):
-    model = solve_module._model("deeponet")
+    model = solve_module._model("deeponet-alg1")
     cal = fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7])
     cal["classical_seconds"] = [1e-6, 1e-6]          # B-spline potentials: cheap
     cal["classical_seconds_formula"] = [1.0, 1.0]    # formulas: expensive
     monkeypatch.setattr(model, "calibration", cal)
-    _, _, estimate = solve_module.neural_solve("deeponet", SHO, "exact V", T)
+    _, _, estimate = solve_module.neural_solve("deeponet-alg1", SHO, "exact V", T)
     assert nh.solve("sho", T, tol=10 * estimate).kind == "neural"
     bspline = nh.solve(pots[0], T, tol=1.0)
     assert bspline.kind == "classical" and "expected" in bspline.reason
