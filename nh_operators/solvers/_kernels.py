@@ -76,20 +76,116 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, 
             k += 1
 
 
+#: Trajectories a kernel advances in lockstep. One trajectory is a chain of dependent
+#: force evaluations (each waits for the last); LANES independent chains let the CPU
+#: overlap them. Each lane does exactly the arithmetic of :func:`_trajectory_fixed`, so
+#: the results are bit for bit the same.
+LANES = 4
+
+
+@numba.njit(**_JIT_FN_ARG)
+def _lanes_fixed(force, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Rows ``rows[lo:lo + LANES]`` (outputs ``oq[lo + l]``), which share the sorted
+    times ``tq`` and the step grid (``h``, ``nsteps``), advanced side by side."""
+    q = np.empty(LANES)
+    p = np.empty(LANES)
+    f = np.empty(LANES)
+    qa = np.empty(LANES)
+    pa = np.empty(LANES)
+    fa = np.empty(LANES)
+    f2 = np.empty(LANES)
+    f3 = np.empty(LANES)
+    f4 = np.empty(LANES)
+    p2 = np.empty(LANES)
+    p3 = np.empty(LANES)
+    p4 = np.empty(LANES)
+    for la in range(LANES):
+        i = rows[lo + la]
+        q[la] = q0s[i]
+        p[la] = p0s[i]
+        f[la] = force(pars[i], q[la])
+    m = tq.shape[0]
+    k = 0
+    while k < m and tq[k] <= 0.0:
+        for la in range(LANES):
+            oq[lo + la, k] = q0s[rows[lo + la]]
+            op[lo + la, k] = p0s[rows[lo + la]]
+        k += 1
+    h2 = 0.5 * h
+    for n in range(nsteps):
+        for la in range(LANES):
+            qa[la] = q[la]
+            pa[la] = p[la]
+            fa[la] = f[la]
+        if rk4:
+            for la in range(LANES):
+                f2[la] = force(pars[rows[lo + la]], q[la] + h2 * p[la])
+                p2[la] = p[la] + h2 * f[la]
+            for la in range(LANES):
+                f3[la] = force(pars[rows[lo + la]], q[la] + h2 * p2[la])
+                p3[la] = p[la] + h2 * f2[la]
+            for la in range(LANES):
+                f4[la] = force(pars[rows[lo + la]], q[la] + h * p3[la])
+                p4[la] = p[la] + h * f3[la]
+            for la in range(LANES):
+                q[la] = q[la] + h / 6.0 * (p[la] + 2.0 * p2[la] + 2.0 * p3[la] + p4[la])
+                p[la] = p[la] + h / 6.0 * (f[la] + 2.0 * f2[la] + 2.0 * f3[la] + f4[la])
+                f[la] = force(pars[rows[lo + la]], q[la])
+        else:
+            for w in weights:
+                for la in range(LANES):
+                    p[la] += 0.5 * h * w * f[la]
+                    q[la] += h * w * p[la]
+                    f[la] = force(pars[rows[lo + la]], q[la])
+                    p[la] += 0.5 * h * w * f[la]
+        t0 = n * h
+        t1 = (n + 1) * h
+        last = n == nsteps - 1
+        while k < m and (last or tq[k] <= t1):
+            theta = (tq[k] - t0) / h
+            for la in range(LANES):
+                oq[lo + la, k] = _hermite(theta, h, qa[la], pa[la], q[la], p[la])
+                op[lo + la, k] = _hermite(theta, h, pa[la], fa[la], p[la], f[la])
+            k += 1
+
+
 @numba.njit(parallel=True, **_JIT_FN_ARG)
-def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
-    for i in numba.prange(pars.shape[0]):
-        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[i], op[i],
+def _shared_grid(force, pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Rows ``rows`` on one time grid: LANES at a time, the remainder one by one."""
+    blocks = rows.shape[0] // LANES
+    for b in numba.prange(blocks):
+        _lanes_fixed(force, pars, rows, b * LANES, tq, h, nsteps, rk4, weights, oq, op,
+                     q0s, p0s)
+    for k in numba.prange(blocks * LANES, rows.shape[0]):
+        i = rows[k]
+        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[k], op[k],
                           q0s[i], p0s[i])
 
 
+def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Every row of ``pars`` on the shared sorted times ``tq`` and step grid."""
+    rows = np.arange(pars.shape[0])
+    _shared_grid(force, pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
+
+
 @numba.njit(parallel=True, **_JIT_FN_ARG)
-def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
-    """Row ``rows[k]`` of every per-row array, with its own sorted times and step grid."""
+def _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
     for k in numba.prange(rows.shape[0]):
         i = rows[k]
         _trajectory_fixed(force, pars[i], tq[i], hs[i], nsteps[i], rk4, weights, oq[k],
                           op[k], q0s[i], p0s[i])
+
+
+def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Row ``rows[k]`` of every per-row array, with its own sorted times and step grid
+    (in lockstep when the rows share them), into ``oq[k]``, ``op[k]``."""
+    first = rows[0] if rows.size else 0
+    if rows.size and np.all(hs[rows] == hs[first]) and np.all(nsteps[rows] == nsteps[first]) \
+            and np.all(tq[rows] == tq[first]):
+        _shared_grid(force, pars, rows, np.ascontiguousarray(tq[first]), hs[first],
+                     nsteps[first], rk4, weights, oq, op, q0s, p0s)
+    else:
+        _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s)
 
 
 # ----------------------------------------- adaptive Dormand–Prince 5(4) in λ (truth)
