@@ -19,7 +19,7 @@ import math
 import numba
 
 from .expression import Expression, parse_expression
-from .physical import _A, _DE, PHYSICAL_POTENTIALS
+from .physical import _A, _DE, PHYSICAL_POTENTIALS, SMFF_ALPHA
 
 __all__ = ["compile_expression", "compiled_functions"]
 
@@ -107,7 +107,7 @@ def compile_expression(expr):
 
 
 #: The physical potentials that have a formula in the whitelist (SMFF evaluates a
-#: removable singularity by series, so it stays in NumPy).
+#: removable singularity by series: its compiled form is written by hand below).
 _PHYSICAL_FORMULAS = {
     "sho": "8*(q-0.5)**2",
     "double_well": "625/8*(q-0.2)**2*(q-0.8)**2",
@@ -125,9 +125,39 @@ def _key(potential):
     if isinstance(expr, Expression):
         return expr
     name = getattr(potential, "name", None)
-    if name in _PHYSICAL_FORMULAS and PHYSICAL_POTENTIALS.get(name) is potential:
+    if name in (*_PHYSICAL_FORMULAS, "smff") and PHYSICAL_POTENTIALS.get(name) is potential:
         return name
     return None
+
+
+# SMFF, V = s u coth u with u = α (q - 1/2) and s = 4 tanh(α/2) / α, written by hand: the
+# removable singularity at u = 0 takes the Taylor series of u coth u (as in
+# :func:`~nh_operators.potentials.physical.smff`), which no whitelisted formula can say.
+_SMFF_SCALE = 4.0 * math.tanh(SMFF_ALPHA / 2.0) / SMFF_ALPHA
+
+
+@numba.njit(nogil=True, cache=True)
+def _smff_value(par, q):
+    u = SMFF_ALPHA * (q - 0.5)
+    if abs(u) < 0.1:
+        u2 = u * u
+        return _SMFF_SCALE * (1 + u2 / 3 - u2**2 / 45 + 2 * u2**3 / 945 - u2**4 / 4725
+                              + 2 * u2**5 / 93555)
+    return _SMFF_SCALE * u / math.tanh(u)
+
+
+@numba.njit(nogil=True, cache=True)
+def _smff_force(par, q):
+    u = SMFF_ALPHA * (q - 0.5)
+    if abs(u) < 0.1:
+        u2 = u * u
+        d = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725
+                 + 20 * u2**4 / 93555)
+    elif abs(u) > 350.0:  # sinh² would overflow; u / sinh² u is below 1e-300 there
+        d = 1.0 / math.tanh(u)
+    else:
+        d = 1.0 / math.tanh(u) - u / math.sinh(u) ** 2
+    return -_SMFF_SCALE * SMFF_ALPHA * d
 
 
 def compiled_functions(potential, *, after=0):
@@ -155,6 +185,12 @@ def compiled_functions(potential, *, after=0):
     key = _key(potential)
     if key is None:
         return None
+    if key == "smff":
+        seen = _USES.get(key, 0)
+        if seen < after:
+            _USES[key] = seen + 1
+            return None
+        return _smff_value, _smff_force
     expr = key if isinstance(key, Expression) else parse_expression(_PHYSICAL_FORMULAS[key])
     sources = (_emit(expr._tree), _emit(expr._dtree))
     seen = _USES.get(sources, 0)

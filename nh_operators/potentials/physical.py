@@ -109,6 +109,10 @@ def _morse_dV(q):
     return 2.0 * _DE * _A * e * (1.0 - e)
 
 
+#: α of the physical SMFF (the paper's value).
+SMFF_ALPHA = 20.0
+
+
 def smff(alpha):
     """Softened mirrored free fall, V = 4 tanh(α/2) (q - 1/2) coth(α (q - 1/2)).
 
@@ -159,5 +163,5 @@ PHYSICAL_POTENTIALS = {
         "mff", "4 |q - 1/2|", lambda q: 4 * np.abs(q - 0.5), lambda q: 4 * np.sign(q - 0.5),
         _mff_exact, _mff_from_state,
     ),
-    "smff": smff(20.0),
+    "smff": smff(SMFF_ALPHA),
 }

@@ -53,9 +53,8 @@ class RowSource:
         params = self.params if rows is None else self.params[rows]
         flat = x.reshape(x.shape[0], -1)
         out = np.empty(flat.shape)
-        if self.compiled and params.shape[0] == flat.shape[0]:
-            for j in range(flat.shape[1]):
-                _orbit.pairwise(fn, params, np.ascontiguousarray(flat[:, j]), out[:, j])
+        if self.compiled and params.shape[0] in (1, flat.shape[0]):
+            _orbit.rowwise(fn, params, np.ascontiguousarray(flat), out)
         else:
             for i in range(flat.shape[0]):
                 for j in range(flat.shape[1]):

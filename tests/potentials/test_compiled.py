@@ -32,8 +32,21 @@ def test_physical_potentials_and_typed_formulas_are_compiled():
                            rtol=1e-14, atol=1e-14)
         assert np.allclose([-force(np.zeros(1), x) for x in q[1:-1] + 0.01],
                            PHYSICAL_POTENTIALS[name].dV(q[1:-1] + 0.01), rtol=1e-12, atol=1e-12)
-    assert compiled_functions(PHYSICAL_POTENTIALS["smff"]) is None
     assert compiled_functions(parse_potential("8*(q-0.5)**2")) is not None
+
+
+def test_smff_is_compiled_by_hand_with_the_same_series_branch():
+    smff = PHYSICAL_POTENTIALS["smff"]
+    value, force = compiled_functions(smff)
+    edge = 0.1 / 20.0  # |u| = 0.1, where the series takes over
+    q = np.concatenate([np.linspace(0, 1, 1001), 0.5 + np.linspace(-2 * edge, 2 * edge, 401),
+                        0.5 + edge * np.array([1 - 1e-12, 1 + 1e-12, -1 + 1e-12, -1 - 1e-12]),
+                        [0.5, -20.0, 30.0]])  # far outside: sinh² u would overflow
+    par = np.zeros(1)
+    np.testing.assert_allclose([value(par, x) for x in q], smff.V(q), rtol=1e-15, atol=0)
+    # the closed form of dV cancels for small |u| (see test_physical): the two math
+    # libraries round that cancellation differently, by up to ~100 ulp there
+    np.testing.assert_allclose([-force(par, x) for x in q], smff.dV(q), rtol=2e-13, atol=1e-18)
 
 
 def test_generated_source_holds_only_our_strings_and_numbers():
