@@ -73,10 +73,38 @@ def _run_facts(entry):
     return int(last[0]), float(last[-1]) / 60
 
 
+def tail(methods, test_path):
+    """How much of each network's mean its worst potentials make: the mean of L_tot is
+    ruled by a few potentials, the median and IQR by the bulk."""
+    import numpy as np
+
+    import nh_operators as nh
+
+    test = nh.load_dataset(test_path)
+    print(f"\nThe tail ({test_path}): each network's worst potentials")
+    print("| network | worst index | its L_tot | its share of the mean | mean without it | "
+          "mean without the worst 3 |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name, entry in methods.items():
+        if entry.get("kind") != "neural" or not entry.get("run_dir"):
+            continue
+        net, _ = nh.load_model(entry["run_dir"])
+        q, p = nh.predict(net, test.V, nh.TIMES)
+        loss = 0.5 * (((q - test.q) ** 2).mean(1) + ((p - test.p) ** 2).mean(1))
+        order = np.argsort(loss)[::-1]
+        worst = int(order[0])
+        print(f"| {name} | {worst} | {loss[worst]:.2e} | {loss[worst] / loss.sum():.0%} | "
+              f"{np.delete(loss, order[:1]).mean():.2e} | "
+              f"{np.delete(loss, order[:3]).mean():.2e} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--report", required=True, help="report.json of nh-operators evaluate")
     ap.add_argument("--json", help="also write the rows here")
+    ap.add_argument("--tail", metavar="TEST.h5",
+                    help="the report's test set: re-predict each network from its run "
+                    "directory and print its worst potentials' share of the mean")
     args = ap.parse_args()
     report = json.loads(Path(args.report).read_text())
     methods = report["methods"]
@@ -111,6 +139,8 @@ def main():
                      else f"paper {row['family']} (100k data)")
             print(f"| {label} | "
                   + " | ".join(_e(v) for v in PAPER_PHYSICAL[row["family"]]) + " |")
+    if args.tail:
+        tail(methods, args.tail)
     devices = sorted({str(e.get("device")) for e in methods.values() if e.get("device")})
     print(f"\nevaluation device: {', '.join(devices) or '?'}")
     if args.json:
