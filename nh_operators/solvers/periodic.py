@@ -188,7 +188,9 @@ def phase_error(src, plan, q, p, tols, batched=False):
             f"{_where(batched, i)}the period T = {plan['period'][i]:.15g} is known to "
             f"±{plan['dT'][k]:.2g}; by t = {plan['tmax'][i]:g} that shifts "
             f"the phase by up to {shift[i].max():.2g}, L_tot {phase[i]:.2g}, more than a "
-            f"quarter of tol {tols[i]:g} (near a separatrix T is hard to pin down)")
+            f"quarter of tol {tols[i]:g} (T is hard to pin down where the particle is slow: "
+            "near a separatrix, or near a gentle turning point, where E − V(q) is as "
+            "small as its own rounding)")
     return phase
 
 
