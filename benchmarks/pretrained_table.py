@@ -96,7 +96,7 @@ def main():
         if r["goal"]:
             minutes, slope = r["reach"]
             if minutes <= r["minutes"]:
-                print(f"- {r['name']}: reached after {minutes:.1f} min")
+                print(f"- {r['name']}: reached after {minutes:.2g} min")
             else:
                 print(f"- {r['name']}: {minutes:,.0f} min (slope {slope:.2f}; trained "
                       f"{r['minutes']:.0f} min)")

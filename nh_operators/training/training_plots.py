@@ -47,19 +47,24 @@ def plot_training_curves(runs, *, title=None, goals=None):
     """
     if not runs:
         raise ValueError("no runs to plot")
-    fig = _figure(figsize=(7, 4.5))
+    many = len(runs) > 4
+    fig = _figure(figsize=(10, 4.5) if many else (7, 4.5))
     ax = fig.subplots()
     for i, (label, run) in enumerate(runs.items()):
         h = run if isinstance(run, dict) else read_history(run)
         minutes = h["seconds"] / 60.0
-        ax.plot(minutes, h["val_loss"], "-", color=f"C{i % 10}", label=f"{label} (validation)")
-        ax.plot(minutes, h["train_loss"], "--", color=f"C{i % 10}", alpha=0.6,
-                label=f"{label} (training)")
+        ax.plot(minutes, h["val_loss"], "-", color=f"C{i % 10}", label=label)
+        ax.plot(minutes, h["train_loss"], "--", color=f"C{i % 10}", alpha=0.6)
+    ax.plot([], [], "k-", label="validation (solid)")
+    ax.plot([], [], "k--", alpha=0.6, label="training (dashed)")
     for j, (label, value) in enumerate((goals or {}).items()):
         ax.axhline(value, linestyle=":", color="k", alpha=0.5 + 0.1 * j, label=label)
     ax.set(yscale="log", xlabel="training time (minutes)", ylabel="loss (mean over outputs)")
     ax.grid(True, which="major", alpha=0.3)
-    ax.legend(fontsize="small")
+    if many:  # beside the axes, where it hides no curve
+        ax.legend(fontsize="small", loc="center left", bbox_to_anchor=(1.01, 0.5))
+    else:
+        ax.legend(fontsize="small")
     if title is not None:
         ax.set_title(title)
     return fig
