@@ -18,7 +18,10 @@ def test_curves_are_the_history_against_minutes(tmp_path):
     np.testing.assert_array_equal(h["epoch"], [1, 2, 3])
     fig = plot_training_curves({"a": run}, goals={"paper": 0.01}, title="t")
     (ax,) = fig.axes
-    val, train, goal = ax.lines
+    val, train, solid_key, dashed_key, goal = ax.lines
+    assert solid_key.get_xdata().size == dashed_key.get_xdata().size == 0  # legend keys only
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "a", "validation (solid)", "training (dashed)", "paper"]
     np.testing.assert_allclose(val.get_xdata(), [0.5, 1.0, 1.5])
     np.testing.assert_array_equal(val.get_ydata(), [0.4, 0.1, 0.05])
     np.testing.assert_array_equal(train.get_ydata(), [0.5, 0.2, 0.1])
