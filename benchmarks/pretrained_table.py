@@ -66,9 +66,33 @@ def rows():
     return out
 
 
+def calibration_table():
+    """The calibration of each shipped model (``calibration.json``, ``nh-operators
+    calibrate``): its estimate's factor in and out of distribution, the medians on the
+    calibration set, and one network solve's time."""
+    print("\n| model | factor, generator potentials (n) | factor, out-of-distribution (n in "
+          "its domain) | factor used | median true L_tot | median estimate | network solve, "
+          "µs | load average |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name in available_pretrained():
+        path = WEIGHTS / name / "calibration.json"
+        if not path.is_file():
+            print(f"| {name} | not calibrated | | | | | | |")
+            continue
+        c = json.loads(path.read_text())
+        median = c["probabilities"].index(0.5)
+        print(f"| {name} | {c['factor_in_distribution']:.3g} ({c['n']}) | "
+              f"{c.get('factor_ood', float('nan')):.3g} ({c.get('n_ood', 0)}) | "
+              f"{c['factor']:.3g} | {c['L_quantiles'][median]:.2g} | "
+              f"{c['estimate_quantiles'][median]:.2g} | {1e6 * c['neural_seconds']:.0f} | "
+              f"{c['device'].get('load_average', float('nan'))} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--figure", help="write the training curves here")
+    ap.add_argument("--calibration", action="store_true",
+                    help="also print each model's calibration for solve")
     args = ap.parse_args()
     table = rows()
     print("| model | epochs (schedule) | training min | mean L_tot | std | median | IQR | "
@@ -100,6 +124,8 @@ def main():
             else:
                 print(f"- {r['name']}: {minutes:,.0f} min (slope {slope:.2f}; trained "
                       f"{r['minutes']:.0f} min)")
+    if args.calibration:
+        calibration_table()
     if args.figure:
         from nh_operators.evaluation import save_figure
 
