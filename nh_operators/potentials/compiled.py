@@ -120,6 +120,17 @@ _PHYSICAL_FORMULAS = {
 _USES = {}
 
 
+def _deferred(key, after):
+    """Whether this request of ``key`` stays uncompiled: its first ``after`` requests do,
+    until one is compiled (then every later request is)."""
+    seen = _USES.get(key, 0)
+    if seen < after:
+        _USES[key] = seen + 1
+        return True
+    _USES[key] = math.inf  # compiled from here on, whatever a later caller's ``after``
+    return False
+
+
 def _key(potential):
     expr = getattr(potential, "_V", None)
     if isinstance(expr, Expression):
@@ -186,15 +197,9 @@ def compiled_functions(potential, *, after=0):
     if key is None:
         return None
     if key == "smff":
-        seen = _USES.get(key, 0)
-        if seen < after:
-            _USES[key] = seen + 1
-            return None
-        return _smff_value, _smff_force
+        return None if _deferred("smff", after) else (_smff_value, _smff_force)
     expr = key if isinstance(key, Expression) else parse_expression(_PHYSICAL_FORMULAS[key])
     sources = (_emit(expr._tree), _emit(expr._dtree))
-    seen = _USES.get(sources, 0)
-    if seen < after and sources not in _COMPILED:
-        _USES[sources] = seen + 1
+    if sources not in _COMPILED and _deferred(sources, after):
         return None
     return compile_expression(expr)
