@@ -61,10 +61,13 @@ def test_generated_source_holds_only_our_strings_and_numbers():
 def test_a_formula_and_smff_are_compiled_on_their_second_request_then_always():
     from nh_operators.potentials import compiled
 
-    for potential in (parse_potential("3*(q-0.5)**2 + 0.25*q"), PHYSICAL_POTENTIALS["smff"]):
+    for potential in (parse_potential("2 - 5*q*(1-q)**2"), PHYSICAL_POTENTIALS["smff"]):
         key = "smff" if potential is PHYSICAL_POTENTIALS["smff"] else None
         compiled._USES.pop(key, None)
         assert compiled_functions(potential, after=1) is None  # a one-off stays in Python
         assert compiled_functions(potential, after=1) is not None
         assert compiled_functions(potential, after=0) is not None
         assert compiled_functions(potential, after=1) is not None  # never deferred again
+    compiled._USES.pop("smff", None)
+    assert compiled_functions(PHYSICAL_POTENTIALS["smff"], after=0) is not None
+    assert compiled_functions(PHYSICAL_POTENTIALS["smff"], after=1) is not None  # compiled
