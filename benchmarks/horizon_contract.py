@@ -97,7 +97,7 @@ def main():
                 try:
                     seconds, sol = timed(lambda: run(t))
                 except PeriodError as err:  # a clear refusal, not a wrong answer
-                    refused.append(f"{label} ({q0:.2g}, {p0:.2g}): {str(err)[:60]}...")
+                    refused.append(f"{label} ({q0:.2g}, {p0:.2g}): {err}")
                     continue
                 period = sol.tried[-1].get("period") or math.inf
                 q, p = reference(pot, q0, p0, t, period)

@@ -64,7 +64,7 @@ def _family(name, entry):
 
 
 def _run_facts(entry):
-    """(epochs, minutes, training rows) of a network's run directory, or None."""
+    """(epochs, minutes) of a network's run directory, or None."""
     run = entry.get("run_dir")
     history = Path(run) / "history.csv" if run else None
     if history is None or not history.is_file():
@@ -83,8 +83,8 @@ def tail(methods, test_path):
     test = nh.load_dataset(test_path)
     print(f"\nThe tail ({test_path}): each network's worst potentials")
     print("| network | worst index | its L_tot | its share of the mean | mean without it | "
-          "mean without the worst 3 |")
-    print("|---|---:|---:|---:|---:|---:|")
+          "mean without the worst 3 | its V at q = 0, 0.05, 0.1 | its period |")
+    print("|---|---:|---:|---:|---:|---:|---|---:|")
     for name, entry in methods.items():
         if entry.get("kind") != "neural" or not entry.get("run_dir"):
             continue
@@ -93,9 +93,13 @@ def tail(methods, test_path):
         loss = 0.5 * (((q - test.q) ** 2).mean(1) + ((p - test.p) ** 2).mean(1))
         order = np.argsort(loss)[::-1]
         worst = int(order[0])
+        pot = test.potential(worst)
+        values = ", ".join(f"{v:.2f}" for v in pot.V(np.array([0.0, 0.05, 0.1])))
+        # a time beyond 2 makes solve find the orbit's period (docs/solve.md)
+        period = nh.solve(pot, [3.0], tol=1e-6).tried[-1]["period"]
         print(f"| {name} | {worst} | {loss[worst]:.2e} | {loss[worst] / loss.sum():.0%} | "
               f"{np.delete(loss, order[:1]).mean():.2e} | "
-              f"{np.delete(loss, order[:3]).mean():.2e} |")
+              f"{np.delete(loss, order[:3]).mean():.2e} | {values} | {period:.3g} |")
 
 
 def main():

@@ -66,6 +66,26 @@ def rows():
     return out
 
 
+def domain_table(paths):
+    """Each shipped model's domain (``domain.json``): its highest admitted minimum of V,
+    and the share of each test set's potentials inside it."""
+    from pathlib import Path
+
+    from nh_operators.data import load_dataset
+    from nh_operators.potentials import in_domain
+    from nh_operators.solving import network_domain
+
+    sets = {Path(p).stem: load_dataset(p).V for p in paths}
+    print("\n| model | domain from | min V at most | max slope | "
+          + " | ".join(f"share of {name} inside" for name in sets) + " |")
+    print("|---|---|---:|---:|" + "---:|" * len(sets))
+    for name in available_pretrained():
+        d = network_domain(name)
+        print(f"| {name} | {d.get('source', 'the generator')} | {d['min_V_at_most']:.3g} | "
+              f"{d['max_slope']:.3g} | "
+              + " | ".join(f"{in_domain(V, d).mean():.1%}" for V in sets.values()) + " |")
+
+
 def calibration_table():
     """The calibration of each shipped model (``calibration.json``, ``nh-operators
     calibrate``): its estimate's factor in and out of distribution, the medians on the
@@ -91,6 +111,8 @@ def calibration_table():
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--figure", help="write the training curves here")
+    ap.add_argument("--domains", nargs="+", metavar="TEST.h5",
+                    help="also print the share of each test set inside each model's domain")
     ap.add_argument("--calibration", action="store_true",
                     help="also print each model's calibration for solve")
     args = ap.parse_args()
@@ -126,6 +148,8 @@ def main():
                       f"{r['minutes']:.0f} min)")
     if args.calibration:
         calibration_table()
+    if args.domains:
+        domain_table(args.domains)
     if args.figure:
         from nh_operators.evaluation import save_figure
 
