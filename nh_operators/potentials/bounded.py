@@ -156,7 +156,13 @@ def check_bounded(V, *, atol=1e-8, n_check=1001, name="V"):
 
 
 def _check_rows(values, grid, atol, name):
-    for row, v in enumerate(values):
+    # all rows at once; the first failing row then gets its message row by row
+    with np.errstate(invalid="ignore"):
+        failing = (~np.isfinite(values).all(axis=1)
+                   | (np.abs(values[:, 0] - V0) > atol) | (np.abs(values[:, -1] - V0) > atol)
+                   | (values[:, 1:-1] >= V0).any(axis=1))
+    for row in np.flatnonzero(failing)[:1]:
+        v = values[row]
         label = name if values.shape[0] == 1 else f"{name}[{row}]"
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:

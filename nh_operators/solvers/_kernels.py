@@ -188,6 +188,22 @@ def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s
         _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s)
 
 
+
+@numba.njit(parallel=True, **_JIT)
+def level_gap(q, p, q2, p2, w):
+    """½ Σ_j w_j ((q2 − q)² + (p2 − p)²) of every row (K,): the gap of two levels.
+
+    ``w`` is (K, M), or (1, M) shared by all rows."""
+    out = np.empty(q.shape[0])
+    own = w.shape[0] > 1
+    for i in numba.prange(q.shape[0]):
+        wi = w[i] if own else w[0]
+        s = 0.0
+        for j in range(q.shape[1]):
+            s += wi[j] * ((q2[i, j] - q[i, j]) ** 2 + (p2[i, j] - p[i, j]) ** 2)
+        out[i] = 0.5 * s
+    return out
+
 # ----------------------------------------- adaptive Dormand–Prince 5(4) in λ (truth)
 
 _C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)

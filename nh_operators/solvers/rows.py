@@ -118,18 +118,27 @@ def _grids(ts, substeps, interval):
     return hs, nsteps
 
 
-def _level(src, rows, work, interval, q0s, p0s, substeps, method):
+def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
+    """Rows ``rows`` at ``substeps``; ``shared``: every row has work[0]'s times and
+    interval[0] (one grid, the lockstep kernel without comparing rows)."""
     rk4, weights = _method(method)
-    hs, nsteps = _grids(work, substeps, interval)
+    if shared:
+        hs, nsteps = _grids(work[:1], substeps, interval[:1])
+    else:
+        hs, nsteps = _grids(work, substeps, interval)
     oq = np.empty((rows.size, work.shape[1]))
     op = np.empty_like(oq)
-    if src.compiled:
+    if src.compiled and shared:
+        _kernels._shared_grid(src.force, src.params, rows, np.ascontiguousarray(work[0]),
+                              hs[0], nsteps[0], rk4, weights, oq, op, q0s, p0s)
+    elif src.compiled:
         _kernels.rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
                             oq, op, q0s, p0s)
     else:
         for k, i in enumerate(rows):
-            _kernels._trajectory_fixed.py_func(src.force, src.params[0], work[i], hs[i],
-                                               nsteps[i], rk4, weights, oq[k], op[k],
+            j = 0 if shared else i
+            _kernels._trajectory_fixed.py_func(src.force, src.params[0], work[j], hs[j],
+                                               nsteps[j], rk4, weights, oq[k], op[k],
                                                q0s[i], p0s[i])
     return oq, op
 
@@ -156,13 +165,20 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         PeriodError: see :mod:`.periodic`.
     """
     n = q0s.size
-    t = np.broadcast_to(np.asarray(t, dtype=np.float64), (n, np.shape(t)[-1]))
-    asked_order = np.argsort(t, axis=1, kind="stable")
-    ts = np.take_along_axis(t, asked_order, axis=1)
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim == 1:  # times shared by every row: sort once
+        asked_order = np.broadcast_to(np.argsort(t, kind="stable"), (n, t.size))
+        ts = np.broadcast_to(t[asked_order[0]], (n, t.size))
+    else:
+        asked_order = np.argsort(t, axis=1, kind="stable")
+        ts = np.take_along_axis(t, asked_order, axis=1)
     m = ts.shape[1]
     plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
     work, periodic = plan["work"], plan["periodic"]
-    interval = default_interval(ts, periodic)
+    # one grid for all rows: shared times, none answered from a period
+    shared = t.ndim == 1 and plan["order"] is None
+    interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
+                else default_interval(ts, periodic))
     solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
     order = plan["order"]
     if order is None:  # asked columns are work columns 0..m-1
@@ -171,26 +187,29 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         col = np.argsort(order, axis=1, kind="stable")[:, :m]
     # the estimate averages the asked times and, for a row answered from one period,
     # the time T itself (whose return to the start is checked below)
-    weight = np.zeros(work.shape)
-    np.put_along_axis(weight, col, 1.0, 1)
-    if order is not None:
-        tail = np.argsort(order, axis=1, kind="stable")[:, m]
-        with_t = np.flatnonzero(periodic & np.isfinite(plan["period"]))
-        weight[with_t, tail[with_t]] = 1.0
-    weight /= weight.sum(axis=1, keepdims=True)
+    if shared:  # every work time is asked
+        weight = np.full(work.shape[1], 1.0 / work.shape[1])
+    else:
+        weight = np.zeros(work.shape)
+        np.put_along_axis(weight, col, 1.0, 1)
+        if order is not None:
+            tail = np.argsort(order, axis=1, kind="stable")[:, m]
+            with_t = np.flatnonzero(periodic & np.isfinite(plan["period"]))
+            weight[with_t, tail[with_t]] = 1.0
+        weight /= weight.sum(axis=1, keepdims=True)
     rows = np.arange(n)
     q_out = np.empty((n, work.shape[1]))
     p_out = np.empty_like(q_out)
     sub_out = np.zeros(n, dtype=np.int64)
     est_out = np.zeros(n)
-    q, p = _level(src, rows, work, interval, q0s, p0s, 1, method)
+    q, p = _level(src, rows, work, interval, q0s, p0s, 1, method, shared)
     previous = np.full(n, np.inf)
     substeps = 1
     history = []
     while rows.size:
-        q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method)
-        w = weight[rows]
-        raw = 0.5 * (((q2 - q) ** 2 * w).sum(axis=1) + ((p2 - p) ** 2 * w).sum(axis=1))
+        q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method,
+                        shared)
+        raw = _kernels.level_gap(q, p, q2, p2, weight[None] if shared else weight[rows])
         estimate = raw
         substeps *= 2
         if n == 1:
@@ -234,13 +253,18 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
                               f"{plan['period'][i]:.10g} found by quadrature (squared miss "
                               f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
                               "stepped over")
-    qa = np.take_along_axis(q_out, col, 1)
-    pa = np.take_along_axis(p_out, col, 1)
+    if order is None:  # the work columns are the asked ones
+        qa, pa = q_out, p_out
+    else:
+        qa = np.take_along_axis(q_out, col, 1)
+        pa = np.take_along_axis(p_out, col, 1)
     phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
-    q_final = np.empty((n, m))
-    p_final = np.empty((n, m))
-    np.put_along_axis(q_final, asked_order, qa, 1)
-    np.put_along_axis(p_final, asked_order, pa, 1)
+    q_final, p_final = np.empty((n, m)), np.empty((n, m))
+    if t.ndim == 1:
+        q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa
+    else:
+        np.put_along_axis(q_final, asked_order, qa, 1)
+        np.put_along_axis(p_final, asked_order, pa, 1)
     est = (np.sqrt(est_out) + np.sqrt(phase)) ** 2
     return {"q": q_final, "p": p_final, "substeps": sub_out, "estimate": est,
             "period": plan["period"], "phase": phase, "history": history}

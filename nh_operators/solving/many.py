@@ -216,7 +216,8 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
     integrator = classical.get(method, "rk4")
     for lo in range(0, classical_rows.size, CHUNK):
         rows = classical_rows[lo:lo + CHUNK]
-        sub = src.subset(rows)
+        # every row classical: a slice takes views of the parameters, not copies
+        sub = src.subset(slice(lo, lo + rows.size) if classical_rows.size == n else rows)
         try:
             out = solve_rows(sub, t[rows] if t.ndim == 2 else t, q0s[rows], p0s[rows],
                              np.full(rows.size, target), integrator, batched=True)

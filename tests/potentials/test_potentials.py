@@ -278,3 +278,6 @@ def test_check_bounded_batch_names_the_row():
     batch[1, 0] = 0.0
     with pytest.raises(ValueError, match=re.escape("V[1](0) = 0")):
         check_bounded(batch)
+    batch[0, 7] = np.nan  # the first failing row is named, whatever its fault
+    with pytest.raises(ValueError, match=re.escape("V[0] is not finite at q = 0.0707071")):
+        check_bounded(batch)

@@ -65,3 +65,29 @@ def test_rows_with_their_own_grids_and_a_subset_of_rows(params):
                             q0s, p0s)
         np.testing.assert_array_equal(oq, ref[0][rows])
         np.testing.assert_array_equal(op, ref[1][rows])
+
+
+def test_level_gap_is_the_weighted_mean_square_gap_of_two_levels():
+    rng = np.random.default_rng(5)
+    q, p, q2, p2 = rng.normal(size=(4, 6, 9))
+    w = rng.uniform(size=(6, 9))
+    expected = 0.5 * (((q2 - q) ** 2 + (p2 - p) ** 2) * w).sum(axis=1)
+    np.testing.assert_allclose(_kernels.level_gap(q, p, q2, p2, w), expected, rtol=1e-14)
+    shared = 0.5 * (((q2 - q) ** 2 + (p2 - p) ** 2) * w[0]).sum(axis=1)
+    np.testing.assert_allclose(_kernels.level_gap(q, p, q2, p2, w[:1]), shared, rtol=1e-14)
+
+
+def test_shared_times_and_the_same_times_per_row_give_identical_solves():
+    from nh_operators.solvers.rows import row_source, solve_rows
+
+    space = BoundedPotentialSpace(seed=8)
+    src = row_source(space.potentials(space.random(9)).V(nh.SENSORS), "sensors")
+    rng = np.random.default_rng(2)
+    q0s, p0s = rng.uniform(0.3, 0.7, 9), np.zeros(9)
+    t = np.array([1.5, 0.0, 0.7, 2.0, 0.2])  # unsorted: answered in the asked order
+    tols = np.full(9, 1e-9)
+    shared = solve_rows(src, t, q0s, p0s, tols, batched=True)
+    own = solve_rows(src, np.tile(t, (9, 1)), q0s, p0s, tols, batched=True)
+    for key in ("q", "p", "substeps", "estimate"):
+        np.testing.assert_array_equal(shared[key], own[key])
+    assert np.all(shared["q"][:, 1] == q0s)  # t = 0, asked second
