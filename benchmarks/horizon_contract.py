@@ -13,12 +13,13 @@ Reported per (tol, horizon): the share of cases whose true L_tot ≤ tol (a case
 raises :class:`~nh_operators.solvers.PeriodError`, a refusal the contract allows, is counted
 apart and named), the worst ratio
 true / tol, and the median, 90th percentile and maximum over the cases of (time at this
-horizon) / (time of the same solve on [0, 2]), measured in the same run (median of 3
-timings each).
+horizon) / (time of the same solve on [0, 2]), measured in the same run: the two solves
+are called in turn ``--repeats`` times (default 9) and their medians compared, so that the
+noise of a shared machine hits both alike.
 
 Run it with::
 
-    python benchmarks/horizon_contract.py [--size 20] [--horizons 2 100 1e4 1e6]
+    python benchmarks/horizon_contract.py [--size 20] [--horizons 2 100 1e4 1e6] [--repeats 9]
 """
 
 import argparse
@@ -45,13 +46,18 @@ def reference(pot, q0, p0, t, period):
     return sol.q, sol.p
 
 
-def timed(fn, repeats=3):
-    times, out = [], None
+def paired(short, long, repeats):
+    """Median times of ``short()`` and ``long()``, called in turn (noise hits both alike),
+    and the last output of ``long``; a PeriodError of ``long`` propagates."""
+    times = ([], [])
+    out = None
     for _ in range(repeats):
-        start = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), out
+        for k, fn in enumerate((short, long)):
+            start = time.perf_counter()
+            result = fn()
+            times[k].append(time.perf_counter() - start)
+            out = result if k else out
+    return statistics.median(times[0]), statistics.median(times[1]), out
 
 
 def cases(size, rng):
@@ -74,6 +80,8 @@ def main():
     parser.add_argument("--size", type=int, default=20, help="test-set potentials")
     parser.add_argument("--horizons", type=float, nargs="+", default=[2, 100, 1e4, 1e6])
     parser.add_argument("--tols", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8])
+    parser.add_argument("--repeats", type=int, default=9,
+                        help="timings per case and horizon, alternating with [0, 2]")
     args = parser.parse_args()
     rng = np.random.default_rng(14)
     items = cases(args.size, rng)
@@ -83,19 +91,17 @@ def main():
     print(f"{'tol':>7} {'horizon':>8} {'met':>8} {'worst L/tol':>12} "
           f"{'time / [0,2]: median':>21} {'p90':>6} {'max':>6} {'refused':>8}")
     for tol in args.tols:
-        base = {}
         for horizon in args.horizons:
             met, worst, ratios, refused = 0, 0.0, [], []
-            for k, (label, pot, q0, p0) in enumerate(items):
+            for label, pot, q0, p0 in items:
                 t = np.linspace(0, horizon, 20)
                 short = np.linspace(0, 2, 20)
                 def run(times, pot=pot, q0=q0, p0=p0):
                     return nh.solve(pot, times, tol=tol, q0=q0, p0=p0)
 
-                if k not in base:
-                    base[k] = timed(lambda: run(short))[0]
                 try:
-                    seconds, sol = timed(lambda: run(t))
+                    base, seconds, sol = paired(lambda: run(short), lambda: run(t),
+                                                args.repeats)
                 except PeriodError as err:  # a clear refusal, not a wrong answer
                     refused.append(f"{label} ({q0:.2g}, {p0:.2g}): {err}")
                     continue
@@ -104,7 +110,7 @@ def main():
                 true = float(loss_per_sample(sol.q, sol.p, q, p)["L_tot"])
                 met += true <= tol
                 worst = max(worst, true / tol)
-                ratios.append(seconds / base[k])
+                ratios.append(seconds / base)
             print(f"{tol:7.0e} {horizon:8.0e} {met:>4}/{len(items):<3} {worst:12.3g} "
                   f"{statistics.median(ratios):21.2f} {np.quantile(ratios, 0.9):6.2f} "
                   f"{max(ratios):6.2f} {len(refused):>8}")

@@ -23,12 +23,21 @@ class VaRONet(OperatorNet):
     data loss as its own column, which is the paper's loss Σ (error²) + β · KL per
     sample divided by its 2M outputs.
 
+    **The encoder's cell states** (``encoder_cell=True``). The reference code that
+    produced the paper's tables starts each decoder from h = a map of z and
+    c = the encoder's final cell states, layer by layer: a deterministic path of
+    ``num_layers * hidden_size`` numbers beside the latent, which the KL term does not
+    constrain. The paper's text describes only the latent. With the default
+    (``False``), both h and c come from z, and the latent is the only path; the KL term
+    then trades precision for nats (docs/recipe.md measures what the option changes).
+
     Args:
         hidden_size: LSTM width H (paper: 512).
         num_layers: layers of every LSTM (paper: 4).
         latent_dim: size of z (paper: 30).
         n_sensors: length m of V (default 100).
         n_outputs: decoders, 2 for (q, p) (1 gives shape (B, M)).
+        encoder_cell: start the decoders' cell states from the encoder's (see above).
 
     Attributes:
         noise: ``None`` (ε = ``torch.randn_like(μ)``) or a callable ``noise(mu)``
@@ -51,8 +60,9 @@ class VaRONet(OperatorNet):
     query_coupled = True  # LSTM decoders read the query times as a sequence
 
     def __init__(self, hidden_size=512, num_layers=4, latent_dim=30, n_sensors=100,
-                 n_outputs=2):
+                 n_outputs=2, encoder_cell=False):
         super().__init__()
+        self.encoder_cell = bool(encoder_cell)
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.hidden_size = hidden_size
@@ -60,8 +70,10 @@ class VaRONet(OperatorNet):
         self.encoder = nn.LSTM(1, hidden_size, num_layers, batch_first=True)
         self.mu = nn.Linear(hidden_size, latent_dim)
         self.logvar = nn.Linear(hidden_size, latent_dim)
+        states = 1 if self.encoder_cell else 2  # h only, or h and c, from z
         self.init_states = nn.ModuleList(
-            nn.Linear(latent_dim, 2 * num_layers * hidden_size) for _ in range(n_outputs))
+            nn.Linear(latent_dim, states * num_layers * hidden_size)
+            for _ in range(n_outputs))
         self.decoders = nn.ModuleList(
             nn.LSTM(1, hidden_size, num_layers, batch_first=True)
             for _ in range(n_outputs))
@@ -70,7 +82,7 @@ class VaRONet(OperatorNet):
         self.noise = None
 
     def _forward(self, V, t):
-        _, (h, _) = self.encoder(V[..., None])
+        _, (h, c) = self.encoder(V[..., None])
         h = h[-1]
         mu, logvar = self.mu(h), self.logvar(h)
         self.kl = torch.mean(-0.5 * torch.sum(1 + logvar - mu**2 - logvar.exp(), dim=-1))
@@ -82,9 +94,9 @@ class VaRONet(OperatorNet):
         times = t[None].expand(V.shape[0], -1, -1)
         outs = []
         for init, decoder, head in zip(self.init_states, self.decoders, self.heads):
-            state = init(z).view(V.shape[0], 2, self.num_layers, self.hidden_size)
+            state = init(z).view(V.shape[0], -1, self.num_layers, self.hidden_size)
             h0 = state[:, 0].transpose(0, 1).contiguous()
-            c0 = state[:, 1].transpose(0, 1).contiguous()
+            c0 = c if self.encoder_cell else state[:, 1].transpose(0, 1).contiguous()
             seq, _ = decoder(times, (h0, c0))
             outs.append(head(seq))
         return torch.cat(outs, dim=-1)
