@@ -75,7 +75,7 @@ def main():
         t_loop = median_time(lambda: [nh.solve(V[i], nh.TIMES, q0=q0[i], p0=p0[i],
                                                tol=args.tol, method="classical")
                                       for i in range(k)], 1) / k
-        subs = np.array([r["substeps"] for r in out["sol"].records])
+        subs = out["sol"].substeps
 
         def kernel(V=V, q0=q0, p0=p0, subs=subs):
             for sub in np.unique(subs):  # each row at the substeps it ended with

@@ -11,6 +11,7 @@ substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a 
 bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
 """
 
+import functools
 import re
 import time
 from dataclasses import dataclass, field
@@ -46,22 +47,38 @@ class ManySolution:
         q, p: float64 arrays (N, M), row i at row i's times, in their order.
         methods: (N,) array of method names (``"rk4"``, ``"traonet"``, ...).
         error_estimate: (N,) estimated L_tot of each row.
-        records: one dict per row: ``method``, ``kind`` (``"classical"`` or
-            ``"neural"``), ``error_estimate``, and for classical rows ``substeps`` and
-            ``period`` (T when the times were answered from one period, else None).
+        neural: (N,) bool, rows a network answered.
+        substeps: (N,) int, the substeps of a classical row's solution (0 for neural).
+        period: (N,) T where a classical row's times were answered from one period,
+            else nan.
         seconds: wall time of the whole call.
         tol: the tolerance asked for.
         tried: networks tried, with how many rows each accepted.
+        records: one dict per row (built when first read): ``method``, ``kind``
+            (``"classical"`` or ``"neural"``), ``error_estimate``, and for classical
+            rows ``substeps`` and ``period`` (None where unused).
     """
 
     q: np.ndarray
     p: np.ndarray
     methods: np.ndarray
     error_estimate: np.ndarray
-    records: list
+    neural: np.ndarray
+    substeps: np.ndarray
+    period: np.ndarray
     seconds: float
     tol: float = None
     tried: list = field(default_factory=list)
+
+    @functools.cached_property
+    def records(self):
+        return [{"method": str(self.methods[i]),
+                 "kind": "neural" if self.neural[i] else "classical",
+                 "error_estimate": float(self.error_estimate[i]),
+                 **({} if self.neural[i] else {
+                     "substeps": int(self.substeps[i]),
+                     "period": None if np.isnan(self.period[i]) else float(self.period[i])})}
+                for i in range(len(self.methods))]
 
 
 def _bar(total, progress):
@@ -231,15 +248,9 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
             bar.update(rows.size)
     if bar is not None:
         bar.close()
-    neural = set(networks)
-    records = [{"method": str(methods[i]), "kind": "neural" if methods[i] in neural
-                else "classical", "error_estimate": float(estimate[i]),
-                **({} if methods[i] in neural else {
-                    "substeps": int(substeps[i]),
-                    "period": None if np.isnan(period[i]) else float(period[i])})}
-               for i in range(n)]
-    return ManySolution(q_out, p_out, methods.astype(str), estimate, records,
-                        time.perf_counter() - start, tol, tried)
+    neural = np.isin(methods, list(networks)) if networks else np.zeros(n, dtype=bool)
+    return ManySolution(q_out, p_out, methods.astype(str), estimate, neural, substeps,
+                        period, time.perf_counter() - start, tol, tried)
 
 
 def _one_by_one(potentials, t, q0, p0, tol, method, start):
@@ -257,11 +268,13 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
                                float(q0s[i]), float(p0s[i])))
         except ValueError as err:
             raise type(err)(f"row {i}: {err}") from None
-    records = [{"method": s.method, "kind": s.kind, "error_estimate": s.error_estimate,
-                **({"substeps": s.tried[-1].get("substeps"),
-                    "period": s.tried[-1].get("period")} if s.kind == "classical" else {})}
-               for s in sols]
+    classical = [s.kind == "classical" for s in sols]
+    substeps = np.array([s.tried[-1].get("substeps") or 0 if c else 0
+                         for s, c in zip(sols, classical)], dtype=np.int64)
+    period = np.array([(s.tried[-1].get("period") if c else None) or np.nan
+                       for s, c in zip(sols, classical)], dtype=np.float64)
     return ManySolution(np.stack([s.q for s in sols]), np.stack([s.p for s in sols]),
                         np.array([s.method for s in sols]),
-                        np.array([s.error_estimate for s in sols]), records,
+                        np.array([s.error_estimate for s in sols]),
+                        ~np.array(classical, dtype=bool), substeps, period,
                         time.perf_counter() - start, tol)
