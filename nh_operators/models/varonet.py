@@ -1,8 +1,10 @@
 """VaRONet: an LSTM encoder, a Gaussian latent, and LSTM decoders for q and p."""
 
+import numpy as np
 import torch
 from torch import nn
 
+from .._constants import TIMES
 from ._layers import OperatorNet
 
 __all__ = ["VaRONet"]
@@ -38,6 +40,13 @@ class VaRONet(OperatorNet):
         n_sensors: length m of V (default 100).
         n_outputs: decoders, 2 for (q, p) (1 gives shape (B, M)).
         encoder_cell: start the decoders' cell states from the encoder's (see above).
+        grid_decoder: the decoders always read the training grid
+            (:data:`~nh_operators.TIMES`) and the asked times are read off their
+            outputs by a not-a-knot cubic spline, so a prediction at t does not depend
+            on the other times asked (``query_coupled`` is False; on the grid itself the
+            spline is skipped, so training is unchanged). Times must lie in [0, 2].
+            ``False``: the decoders read the asked times as their sequence, as the
+            paper describes; a prediction then changes with its company.
 
     Attributes:
         noise: ``None`` (ε = ``torch.randn_like(μ)``) or a callable ``noise(mu)``
@@ -46,8 +55,9 @@ class VaRONet(OperatorNet):
             global batch's noise and slices this rank's rows, so N processes draw what
             one would.
 
-    Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs). The decoders
-    read the times as a sequence, so ask for them in increasing order.
+    Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs). With
+    ``grid_decoder=False`` the decoders read the times as a sequence, so ask for them in
+    increasing order.
 
     Example:
         >>> import torch
@@ -57,12 +67,14 @@ class VaRONet(OperatorNet):
         (torch.Size([3, 6, 2]), torch.Size([]))
     """
 
-    query_coupled = True  # LSTM decoders read the query times as a sequence
-
     def __init__(self, hidden_size=512, num_layers=4, latent_dim=30, n_sensors=100,
-                 n_outputs=2, encoder_cell=False):
+                 n_outputs=2, encoder_cell=False, grid_decoder=True):
         super().__init__()
         self.encoder_cell = bool(encoder_cell)
+        self.grid_decoder = bool(grid_decoder)
+        # without the grid, the LSTM decoders read the query times as a sequence
+        self.query_coupled = not self.grid_decoder
+        self._weights = (None, None)  # (asked times, spline weights) of the last call
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.hidden_size = hidden_size
@@ -91,6 +103,10 @@ class VaRONet(OperatorNet):
             z = mu + torch.exp(0.5 * logvar) * eps
         else:
             z = mu
+        asked = t
+        if self.grid_decoder:
+            t = torch.tensor(TIMES, dtype=t.dtype, device=t.device)[:, None]
+            on_grid = asked.shape == t.shape and torch.equal(asked, t)
         times = t[None].expand(V.shape[0], -1, -1)
         outs = []
         for init, decoder, head in zip(self.init_states, self.decoders, self.heads):
@@ -99,4 +115,22 @@ class VaRONet(OperatorNet):
             c0 = c if self.encoder_cell else state[:, 1].transpose(0, 1).contiguous()
             seq, _ = decoder(times, (h0, c0))
             outs.append(head(seq))
-        return torch.cat(outs, dim=-1)
+        y = torch.cat(outs, dim=-1)
+        if not self.grid_decoder or on_grid:
+            return y
+        return torch.einsum("mg,bgo->bmo", self._spline(asked, y), y)
+
+    def _spline(self, asked, y):
+        """(M, 100) weights: row i gives the not-a-knot cubic spline through the grid
+        values at asked time i."""
+        key = asked.detach().cpu().numpy().reshape(-1).astype(np.float64)
+        if self._weights[0] is None or not np.array_equal(self._weights[0], key):
+            if key.size and (key.min() < -1e-9 or key.max() > TIMES[-1] + 1e-9):
+                raise ValueError(f"VaRONet with grid_decoder=True predicts on t ∈ [0, "
+                                 f"{TIMES[-1]:g}]; got t from {key.min():g} to "
+                                 f"{key.max():g}")
+            from scipy.interpolate import CubicSpline
+
+            w = CubicSpline(TIMES, np.eye(TIMES.size), axis=0)(np.clip(key, 0, TIMES[-1]))
+            self._weights = (key, w)
+        return torch.as_tensor(self._weights[1], dtype=y.dtype, device=y.device)

@@ -107,13 +107,13 @@ def test_neural_method_from_run(tmp_path):
         NeuralMethod.from_run(tmp_path / "missing")
 
 
-@pytest.mark.parametrize("name,coupled", [("traonet", True), ("mambonet", True),
-                                          ("varonet", True), ("deeponet", False),
-                                          ("fno", False)])
-def test_query_coupling_is_declared_truthfully_and_warned(name, coupled):
+@pytest.mark.parametrize("name,coupled,arch", [
+    ("traonet", True, {}), ("mambonet", True, {}), ("varonet", False, {}),
+    ("varonet", True, {"grid_decoder": False}), ("deeponet", False, {}), ("fno", False, {})])
+def test_query_coupling_is_declared_truthfully_and_warned(name, coupled, arch):
     import warnings
 
-    net = tiny(name)
+    net = tiny(name, **arch)
     assert getattr(net, "query_coupled", False) is coupled
     V = sho_sensors(3) - np.linspace(0, 0.5, 3)[:, None] * np.sin(np.pi * nh.SENSORS)
     with warnings.catch_warnings():
