@@ -56,7 +56,7 @@ def test_grid_decoder_predictions_do_not_depend_on_the_other_times_asked():
     net = _net(True, grid_decoder=True).double()
     assert net.query_coupled is False
     V = _inputs()[0].double()
-    grid = torch.as_tensor(TIMES)[:, None]
+    grid = torch.tensor(TIMES)[:, None]
     with torch.no_grad():
         full = net((V, grid))
         # a grid time alone, or among others, is the grid call's value
