@@ -50,13 +50,11 @@ def paired(short, long, repeats):
     """Median times of ``short()`` and ``long()``, called in turn (noise hits both alike),
     and the last output of ``long``; a PeriodError of ``long`` propagates."""
     times = ([], [])
-    out = None
     for _ in range(repeats):
-        for k, fn in enumerate((short, long)):
+        for k, fn in enumerate((short, long)):  # long last: ``out`` is its output
             start = time.perf_counter()
-            result = fn()
+            out = fn()
             times[k].append(time.perf_counter() - start)
-            out = result if k else out
     return statistics.median(times[0]), statistics.median(times[1]), out
 
 

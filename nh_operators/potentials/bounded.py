@@ -156,27 +156,27 @@ def check_bounded(V, *, atol=1e-8, n_check=1001, name="V"):
 
 
 def _check_rows(values, grid, atol, name):
-    # all rows at once; the first failing row then gets its message row by row
+    # all rows at once; the first failing row then gets its message
     with np.errstate(invalid="ignore"):
         failing = (~np.isfinite(values).all(axis=1)
                    | (np.abs(values[:, 0] - V0) > atol) | (np.abs(values[:, -1] - V0) > atol)
                    | (values[:, 1:-1] >= V0).any(axis=1))
-    for row in np.flatnonzero(failing)[:1]:
-        v = values[row]
-        label = name if values.shape[0] == 1 else f"{name}[{row}]"
-        bad = np.flatnonzero(~np.isfinite(v))
-        if bad.size:
-            raise ValueError(f"{label} is not finite at q = {grid[bad[0]]:.6g} ({v[bad[0]]})")
-        for end, value in ((0, v[0]), (1, v[-1])):
-            if abs(value - V0) > atol:
-                raise ValueError(
-                    f"{label}({end}) = {value:.10g}, but a bounded potential needs "
-                    f"V(0) = V(1) = V0 = {V0:g} (within {atol:g})"
-                )
-        inside = np.flatnonzero(v[1:-1] >= V0) + 1
-        if inside.size:
-            i = inside[0]
+    if not failing.any():
+        return
+    row = int(np.argmax(failing))
+    v = values[row]
+    label = name if values.shape[0] == 1 else f"{name}[{row}]"
+    bad = np.flatnonzero(~np.isfinite(v))
+    if bad.size:
+        raise ValueError(f"{label} is not finite at q = {grid[bad[0]]:.6g} ({v[bad[0]]})")
+    for end, value in ((0, v[0]), (1, v[-1])):
+        if abs(value - V0) > atol:
             raise ValueError(
-                f"{label} ≥ V0 = {V0:g} inside (0, 1): {label}({grid[i]:.6g}) = {v[i]:.10g}; "
-                "a bounded potential needs V < V0 for 0 < q < 1"
+                f"{label}({end}) = {value:.10g}, but a bounded potential needs "
+                f"V(0) = V(1) = V0 = {V0:g} (within {atol:g})"
             )
+    i = int(np.flatnonzero(v[1:-1] >= V0)[0]) + 1
+    raise ValueError(
+        f"{label} ≥ V0 = {V0:g} inside (0, 1): {label}({grid[i]:.6g}) = {v[i]:.10g}; "
+        "a bounded potential needs V < V0 for 0 < q < 1"
+    )

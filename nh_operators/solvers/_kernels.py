@@ -178,7 +178,14 @@ def _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s
 
 def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
     """Row ``rows[k]`` of every per-row array, with its own sorted times and step grid
-    (in lockstep when the rows share them), into ``oq[k]``, ``op[k]``."""
+    (in lockstep when the rows share them), into ``oq[k]``, ``op[k]``.
+
+    ``tq`` (M,) with scalar ``hs`` and ``nsteps``: one grid shared by every row, taken
+    as it is; per-row ``tq`` (N, M), ``hs``, ``nsteps`` are compared first."""
+    if tq.ndim == 1:
+        _shared_grid(force, pars, rows, np.ascontiguousarray(tq), hs, nsteps, rk4, weights,
+                     oq, op, q0s, p0s)
+        return
     first = rows[0] if rows.size else 0
     if rows.size and np.all(hs[rows] == hs[first]) and np.all(nsteps[rows] == nsteps[first]) \
             and np.all(tq[rows] == tq[first]):
@@ -186,7 +193,6 @@ def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s
                      nsteps[first], rk4, weights, oq, op, q0s, p0s)
     else:
         _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s)
-
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -203,6 +209,7 @@ def level_gap(q, p, q2, p2, w):
             s += wi[j] * ((q2[i, j] - q[i, j]) ** 2 + (p2[i, j] - p[i, j]) ** 2)
         out[i] = 0.5 * s
     return out
+
 
 # ----------------------------------------- adaptive Dormand–Prince 5(4) in λ (truth)
 

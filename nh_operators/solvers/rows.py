@@ -120,26 +120,23 @@ def _grids(ts, substeps, interval):
 
 def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
     """Rows ``rows`` at ``substeps``; ``shared``: every row has work[0]'s times and
-    interval[0] (one grid, the lockstep kernel without comparing rows)."""
+    interval[0] (one grid for the lockstep kernel, no rows to compare)."""
     rk4, weights = _method(method)
     if shared:
-        hs, nsteps = _grids(work[:1], substeps, interval[:1])
+        work = work[0]
+        hs, nsteps = (a[0] for a in _grids(work[None], substeps, interval[:1]))
     else:
         hs, nsteps = _grids(work, substeps, interval)
-    oq = np.empty((rows.size, work.shape[1]))
+    oq = np.empty((rows.size, work.shape[-1]))
     op = np.empty_like(oq)
-    if src.compiled and shared:
-        _kernels._shared_grid(src.force, src.params, rows, np.ascontiguousarray(work[0]),
-                              hs[0], nsteps[0], rk4, weights, oq, op, q0s, p0s)
-    elif src.compiled:
+    if src.compiled:
         _kernels.rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
                             oq, op, q0s, p0s)
     else:
         for k, i in enumerate(rows):
-            j = 0 if shared else i
-            _kernels._trajectory_fixed.py_func(src.force, src.params[0], work[j], hs[j],
-                                               nsteps[j], rk4, weights, oq[k], op[k],
-                                               q0s[i], p0s[i])
+            row = (work, hs, nsteps) if shared else (work[i], hs[i], nsteps[i])
+            _kernels._trajectory_fixed.py_func(src.force, src.params[0], *row, rk4,
+                                               weights, oq[k], op[k], q0s[i], p0s[i])
     return oq, op
 
 
@@ -187,8 +184,8 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         col = np.argsort(order, axis=1, kind="stable")[:, :m]
     # the estimate averages the asked times and, for a row answered from one period,
     # the time T itself (whose return to the start is checked below)
-    if shared:  # every work time is asked
-        weight = np.full(work.shape[1], 1.0 / work.shape[1])
+    if shared:  # every work time is asked; one row of weights for all
+        weight = np.full((1, work.shape[1]), 1.0 / work.shape[1])
     else:
         weight = np.zeros(work.shape)
         np.put_along_axis(weight, col, 1.0, 1)
@@ -209,7 +206,7 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
     while rows.size:
         q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method,
                         shared)
-        raw = _kernels.level_gap(q, p, q2, p2, weight[None] if shared else weight[rows])
+        raw = _kernels.level_gap(q, p, q2, p2, weight if shared else weight[rows])
         estimate = raw
         substeps *= 2
         if n == 1:

@@ -194,6 +194,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
     q_out, p_out = np.empty((n, m)), np.empty((n, m))
     classical_rows = np.arange(n)
     tried = []
+    neural = np.zeros(n, dtype=bool)
     rest = (q0s == 0.0) & (p0s == 0.0)
     if method in networks:
         if not rest.all():
@@ -225,6 +226,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
             q_out[rows[take]], p_out[rows[take]] = qn[take], pn[take]
             estimate[rows[take]] = est[take]
             methods[rows[take]] = name
+            neural[rows[take]] = True
             tried.append({"method": name, "rows": int(rows.size), "accepted": int(take.sum())})
             classical_rows = np.setdiff1d(classical_rows, rows[take])
     substeps = np.zeros(n, dtype=np.int64)
@@ -248,7 +250,6 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
             bar.update(rows.size)
     if bar is not None:
         bar.close()
-    neural = np.isin(methods, list(networks)) if networks else np.zeros(n, dtype=bool)
     return ManySolution(q_out, p_out, methods.astype(str), estimate, neural, substeps,
                         period, time.perf_counter() - start, tol, tried)
 
@@ -268,13 +269,11 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
                                float(q0s[i]), float(p0s[i])))
         except ValueError as err:
             raise type(err)(f"row {i}: {err}") from None
-    classical = [s.kind == "classical" for s in sols]
-    substeps = np.array([s.tried[-1].get("substeps") or 0 if c else 0
-                         for s, c in zip(sols, classical)], dtype=np.int64)
-    period = np.array([(s.tried[-1].get("period") if c else None) or np.nan
-                       for s, c in zip(sols, classical)], dtype=np.float64)
+    neural = np.array([s.kind == "neural" for s in sols], dtype=bool)
+    last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural)]  # a classical solve
+    substeps = np.array([r.get("substeps") or 0 for r in last], dtype=np.int64)
+    period = np.array([r.get("period") or np.nan for r in last], dtype=np.float64)
     return ManySolution(np.stack([s.q for s in sols]), np.stack([s.p for s in sols]),
                         np.array([s.method for s in sols]),
-                        np.array([s.error_estimate for s in sols]),
-                        ~np.array(classical, dtype=bool), substeps, period,
-                        time.perf_counter() - start, tol)
+                        np.array([s.error_estimate for s in sols]), neural, substeps,
+                        period, time.perf_counter() - start, tol)
