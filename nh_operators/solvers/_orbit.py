@@ -5,6 +5,10 @@ potential whose ``value(par, x)`` and ``force(par, x)`` are compiled functions (
 sensor splines, compiled formulas); a potential only known as a Python callable runs the
 same source uncompiled (``orbit_period`` itself), so there is one copy of the algorithm.
 
+The turning points are bracketed on a grid of 1/256 (whose values also bound |V'| by
+their differences) and pinned down to adjacent floats by the Illinois variant of regula
+falsi, safeguarded by bisection (~10 values a side instead of ~50).
+
 The half period is ∫ dq / sqrt(2 (E − V(q))) between the turning points a < b. With
 q = a + (b − a) sin²(θ/2), θ ∈ [0, π], the inverse square roots at both ends cancel
 against dq = (b − a)/2 · sin θ dθ and the integrand is smooth wherever V is; a kink of V
@@ -13,7 +17,8 @@ bisection. The nodes never touch θ = 0 or π, so the rounding of the turning po
 (about one ulp) changes T by O(ulp), not by O(sqrt(ulp)). Near a turning point E − V(q)
 is small and its rounding (a few ulps of E) is not: a panel is accepted once its
 Kronrod–Gauss difference is below that rounding, so the bisection does not chase noise;
-the difference still enters the error bound.
+the difference still enters the error bound. The quadrature stops at the accuracy the
+caller's horizon needs (``rate``), between 1e-14 and 1e-9 relative.
 """
 
 import math
@@ -41,7 +46,10 @@ _WG = np.array([0.129484966168869693270611432679082, 0.2797053914892766679014677
 
 _MARCH = 1.0 / 256.0  # grid on which the turning points are bracketed
 _MAX_PANELS = 4000
-_REL = 1e-14  # target relative accuracy of the period
+#: The finest relative accuracy of the period asked for (about what float64 resolves).
+REL_FINEST = 1e-14
+#: The coarsest: a period known to worse than 1e-8 relative is not used (.periodic).
+REL_COARSEST = 1e-9
 _OUTSIDE = 0.05  # how far past a wall a turning point is looked for
 _FLAT = 1e-7  # |V'| at a turning point below this share of max |V'|: a separatrix
 
@@ -58,8 +66,14 @@ def _at_rest(out, q0):
     return STATIONARY
 
 
-def orbit_period(value, force, par, q0, p0, out):
+def orbit_period(value, force, par, q0, p0, rate, out):
     """Period of the orbit through (q0, p0); writes out[0..6] and returns a status.
+
+    rate: the drift of the state per unit time that T's error may cause. An error δT
+    moves the state by up to (t/T) δT sqrt(S) at time t, so T is aimed at the relative
+    accuracy rate / sqrt(S), between :data:`REL_FINEST` and :data:`REL_COARSEST` (rate 0:
+    the finest). A far horizon
+    or a tight tolerance needs a finer T than a near one (:func:`.periodic.plan_horizon`).
 
     out: T, its error bound, a, b, S (a bound on p² + V'² along the orbit), the energy,
     and q where the integrand peaked (a barrier top when the quadrature fails).
@@ -88,13 +102,14 @@ def orbit_period(value, force, par, q0, p0, out):
         if not found:
             return _at_rest(out, q0)
     ends = np.empty(2)
-    flat = np.full(2, math.inf)  # |V'| at the turning points found by bisection
+    flat = np.full(2, math.inf)  # |V'| at the turning points found inside
     for side in range(2):
         direction = -1.0 if side == 0 else 1.0
         if (side == 0 and fixed_side == -1) or (side == 1 and fixed_side == 1):
             ends[side] = q0
             continue
         x = x_in
+        v = value(par, x_in)
         wall = False
         while True:
             # past a wall only when E exceeds V there (by rounding): the true turning
@@ -103,28 +118,49 @@ def orbit_period(value, force, par, q0, p0, out):
             if (xn < 0.0 or xn > 1.0) and (x > 0.0 and x < 1.0):
                 xn = 0.0 if xn < 0.0 else 1.0
             vn = value(par, xn)
+            if xn != x:  # V' somewhere in between (mean value): for the bound S
+                smax_f = max(smax_f, ((vn - v) / (xn - x)) ** 2)
             if not (energy - vn > 0.0):
                 break
-            fn = force(par, xn)
             smax_p = max(smax_p, 2.0 * (energy - vn))
-            smax_f = max(smax_f, fn * fn)
             if xn <= -_OUTSIDE or xn >= 1.0 + _OUTSIDE:
                 wall = True
                 break
             x = xn
+            v = vn
         if wall:
             ends[side] = xn
             continue
-        lo = x  # inside
-        hi = xn  # outside
-        for _ in range(200):
+        # E - V changes sign between x (inside, g > 0) and xn (outside, g <= 0): the
+        # Illinois variant of regula falsi, bisecting whenever the bracket does not
+        # halve in two steps, down to two adjacent floats
+        lo, glo = x, energy - v
+        hi, ghi = xn, energy - vn
+        kept = 0  # +1: lo kept last step, -1: hi kept
+        width = abs(hi - lo)
+        for it in range(200):
             mid = 0.5 * (lo + hi)
             if mid == lo or mid == hi:
                 break
-            if energy - value(par, mid) > 0.0:
-                lo = mid
+            bisect = False
+            if it % 2 == 0:
+                bisect = it > 0 and abs(hi - lo) > 0.5 * width
+                width = abs(hi - lo)
+            if not bisect and glo - ghi > 0.0:
+                sec = lo + glo / (glo - ghi) * (hi - lo)
+                if min(lo, hi) < sec < max(lo, hi):
+                    mid = sec
+            g = energy - value(par, mid)
+            if g > 0.0:
+                lo, glo = mid, g
+                if kept == -1:
+                    ghi *= 0.5
+                kept = -1
             else:
-                hi = mid
+                hi, ghi = mid, g
+                if kept == 1:
+                    glo *= 0.5
+                kept = 1
         ends[side] = lo
         fe = force(par, lo)
         smax_f = max(smax_f, fe * fe)
@@ -150,6 +186,9 @@ def orbit_period(value, force, par, q0, p0, out):
             out[1] = math.inf
             out[6] = ends[side]
             return BARRIER
+    rel = REL_FINEST
+    if out[4] > 0.0:
+        rel = min(max(rate / math.sqrt(out[4]), REL_FINEST), REL_COARSEST)
     slope_a = abs(force(par, a))
     slope_b = abs(force(par, b))
     # adaptive Gauss–Kronrod on θ ∈ [0, π]
@@ -233,7 +272,7 @@ def orbit_period(value, force, par, q0, p0, out):
         err = abs(kron - gauss)
         if guess == 0.0:
             guess = kron * panels
-        if err <= _REL * guess * r / math.pi + 10.0 * noise or r < 1e-12:
+        if err <= rel * guess * r / math.pi + 10.0 * noise or r < 1e-12:
             total += kron
             if err > 10.0 * noise:  # truncation: adds up
                 error += err
@@ -257,11 +296,13 @@ _orbit_period_jit = numba.njit(**_JIT_FN_ARG)(orbit_period)
 
 
 @numba.njit(parallel=True, **_JIT_FN_ARG)
-def batch_orbit_period(value, force, pars, rows, q0s, p0s, out, status):
-    """orbit_period of rows ``rows`` (indices into pars, q0s, p0s); out (len(rows), 7)."""
+def batch_orbit_period(value, force, pars, rows, q0s, p0s, rates, out, status):
+    """orbit_period of rows ``rows`` (indices into pars, q0s, p0s) with drift rates
+    ``rates`` (one per row of ``rows``); out (len(rows), 7)."""
     for k in numba.prange(rows.shape[0]):
         i = rows[k]
-        status[k] = _orbit_period_jit(value, force, pars[i], q0s[i], p0s[i], out[k])
+        status[k] = _orbit_period_jit(value, force, pars[i], q0s[i], p0s[i], rates[k],
+                                      out[k])
 
 
 @numba.njit(parallel=True, **_JIT_FN_ARG)

@@ -1,8 +1,10 @@
 """Any horizon at the cost of one period: every bounded 1-D orbit is periodic.
 
 For a row whose latest time exceeds :data:`PERIODIC_FROM`, the period T of its orbit is
-found once (:mod:`._orbit`: turning points, then an adaptive quadrature of dq/|p| to
-about 1e-14 relative, with an error bound δT), and every time t = n T + r is answered by
+found once (:mod:`._orbit`: turning points, then an adaptive quadrature of dq/|p|, with
+an error bound δT, to the accuracy the horizon needs: its phase error at the latest time
+may cost :data:`PHASE_SHARE` of the tolerance, and T is never coarser than 1e-9 nor
+finer than 1e-14 relative), and every time t = n T + r is answered by
 the solve at r ∈ [0, T). The time T itself is solved too: the trajectory must return to
 its starting state there, a check that catches a period gone wrong (a barrier narrower
 than the search grid of the turning points).
@@ -26,7 +28,7 @@ import math
 import numpy as np
 
 from .._constants import TIMES
-from . import _orbit
+from . import _orbit, _reduce
 
 __all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError", "orbit_periods", "plan_horizon"]
 
@@ -37,6 +39,9 @@ DIRECT_HORIZON = 50.0
 
 #: A period whose error bound exceeds this share of T is not used.
 _LOOSE = 1e-8
+#: The share of the tolerance that the error of T may cost at the latest time; the
+#: quadrature aims for it (then the solve keeps (1 - sqrt(1/400))² = 90 % of tol).
+PHASE_SHARE = 1.0 / 400.0
 
 _FAILURES = {_orbit.NOT_CONVERGED: "its period quadrature did not converge",
              _orbit.BARRIER: "it turns around where V' (almost) vanishes, or V reaches the "
@@ -47,13 +52,16 @@ class PeriodError(ValueError):
     """The period of an orbit cannot be found to the accuracy the tolerance needs."""
 
 
-def orbit_periods(src, rows, q0s, p0s):
+def orbit_periods(src, rows, q0s, p0s, rate=None):
     """Period data of rows ``rows`` of a row source (:mod:`.rows`).
 
     Args:
         src: a row source (force, value, params, compiled).
         rows: (K,) int64 indices of the rows.
         q0s, p0s: (N,) starting states of all rows.
+        rate: (K,) per row, the drift of the state per unit time that the error of T
+            may cause (T is then aimed at rate / sqrt(max(p² + V′²)) relative), or None
+            for the finest T (:data:`~._orbit.REL_FINEST`, about 1e-14, relative).
 
     Returns:
         (out, status): out (K, 7) holds T, δT, a, b, S, E and the q where the quadrature
@@ -68,13 +76,14 @@ def orbit_periods(src, rows, q0s, p0s):
     """
     out = np.empty((rows.size, 7))
     status = np.empty(rows.size, dtype=np.int64)
+    rate = np.zeros(rows.size) if rate is None else np.ascontiguousarray(rate, np.float64)
     if src.compiled:
-        _orbit.batch_orbit_period(src.value, src.force, src.params, rows, q0s, p0s, out,
-                                  status)
+        _orbit.batch_orbit_period(src.value, src.force, src.params, rows, q0s, p0s, rate,
+                                  out, status)
     else:
         for k, i in enumerate(rows):
             status[k] = _orbit.orbit_period(src.value, src.force, src.params[0], q0s[i],
-                                            p0s[i], out[k])
+                                            p0s[i], rate[k], out[k])
     return out, status
 
 
@@ -90,9 +99,11 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
             tolerances on L_tot; batched: name rows in messages.
 
     Returns:
-        dict with ``work`` (N, M or M + 1) sorted working times, ``order`` (N, M or M+1)
-        the argsort of each working row, ``periodic`` (N,) bool, ``period`` (N,) T (nan
-        when unused), ``phase`` (N,) the phase bound on L_tot.
+        dict with ``work`` (N, M or M + 1) sorted working times, ``order`` (N, M + 1)
+        the argsort of each working row and ``column`` its inverse (the sorted column of
+        each asked time, then of T; both None when no row needs a period), ``periodic``
+        (N,) bool, ``period`` (N,) T (nan when unused), ``phase`` (N,) the phase bound
+        on L_tot.
 
     Raises:
         ValueError: a time beyond what float64 resolves.
@@ -104,67 +115,57 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
     periodic = np.zeros(n, dtype=bool)
     need = np.flatnonzero(ts[:, -1] > PERIODIC_FROM)
     if need.size == 0:
-        return {"work": ts, "order": None, "periodic": periodic, "period": period,
-                "phase": phase}
-    out, status = orbit_periods(src, need, q0s, p0s)
+        return {"work": ts, "order": None, "column": None, "periodic": periodic,
+                "period": period, "phase": phase}
+    # L_tot of a shift s is about s² S / 2: allow PHASE_SHARE · tol at the latest time
+    rate = np.sqrt(2.0 * PHASE_SHARE * tols[need]) / ts[need, -1]
+    out, status = orbit_periods(src, need, q0s, p0s, rate)
     work = np.concatenate([ts, ts[:, -1:]], axis=1)
+    order = np.empty(work.shape, dtype=np.int64)
+    order[:] = np.arange(m + 1)
+    column = order.copy()
     shifts = np.zeros((n, m))
-    for k, i in enumerate(need):
-        T, dT, S, energy = out[k, 0], out[k, 1], out[k, 4], out[k, 5]
-        t = ts[i]
-        ulp = np.spacing(t)
+    verdict = np.empty(need.size, dtype=np.int64)
+    _reduce.plan_rows(np.ascontiguousarray(ts), tols, need, out, status, _LOOSE,
+                      DIRECT_HORIZON, work, order, column, shifts, phase, period, periodic,
+                      verdict)
+    if verdict.max() >= _reduce.BEYOND:
+        _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched)
+    return {"work": work, "order": order, "column": column, "periodic": periodic,
+            "period": period,
+            "phase": phase, "shift": shifts, "dT": out[:, 1], "need": need,
+            "tmax": ts[:, -1]}
+
+
+def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
+    """Raise for the first row that cannot be answered (a verdict of BEYOND first)."""
+    T, dT, _, _, S, energy, peak = out.T
+    beyond = np.flatnonzero(verdict == _reduce.BEYOND)
+    if beyond.size:
+        k = beyond[0]
+        tmax = ts[need[k], -1]
+        ulp = np.spacing(tmax)
         with np.errstate(over="ignore"):
-            rounding = 0.5 * S * ulp[-1] ** 2
-        if rounding > 0.25 * tols[i] or not np.isfinite(t[-1] / max(T, 1e-300)):
-            raise ValueError(
-                f"{_where(batched, i)}t = {t[-1]:g} is beyond what float64 resolves: the "
-                f"spacing of float64 numbers there is {ulp[-1]:.3g}, which at speeds up to "
-                f"{math.sqrt(S):.3g} moves the state by {math.sqrt(S) * ulp[-1]:.3g} "
-                f"(L_tot {rounding:.3g}), more than tol {tols[i]:g} allows")
-        # an orbit smaller than the tolerance (at rest at, or next to, an equilibrium):
-        # its starting state is the answer at every time, within (b - a)² + max p²
-        tiny = 0.5 * ((out[k, 3] - out[k, 2]) ** 2 + S)
-        if status[k] == _orbit.STATIONARY or (
-                (status[k] != _orbit.OK or dT > _LOOSE * T) and tiny <= 0.25 * tols[i]):
-            work[i] = 0.0  # the state never changes (by more than the bound)
-            periodic[i] = True
-            phase[i] = 0.0 if status[k] == _orbit.STATIONARY else tiny
-            continue
-        if status[k] == _orbit.OK and dT > _LOOSE * T:
-            if t[-1] <= DIRECT_HORIZON:
-                continue
-            raise PeriodError(
-                f"{_where(batched, i)}the period T = {T:.6g} of the orbit from (q0 = "
-                f"{q0s[i]:g}, p0 = {p0s[i]:g}), energy {energy:.10g}, is only known to "
-                f"±{dT:.2g}: it passes near q = {out[k, 6]:.6g} at almost zero speed, close "
-                "to a separatrix, where T → ∞; times up to "
-                f"{DIRECT_HORIZON:g} are integrated directly")
-        if status[k] != _orbit.OK:
-            if t[-1] <= DIRECT_HORIZON:
-                continue
-            raise PeriodError(
-                f"{_where(batched, i)}the period of the orbit from (q0 = {q0s[i]:g}, p0 = "
-                f"{p0s[i]:g}), energy {energy:.10g}, cannot be found: "
-                f"{_FAILURES[status[k]]} near q = {out[k, 6]:.6g}. The particle passes a "
-                "barrier top at (almost) zero speed, a separatrix, where T → ∞; times up "
-                f"to {DIRECT_HORIZON:g} are integrated directly")
-        turns = np.floor(t / T)
-        reduced = t - turns * T
-        turns = np.where(reduced < 0, turns - 1, np.where(reduced >= T, turns + 1, turns))
-        reduced = np.clip(t - turns * T, 0.0, T)
-        shift = turns * dT + ulp
-        shifts[i] = shift
-        # a bound (S: max of p² + V'² on the orbit) that sets the solve's share of tol;
-        # the phase error itself is measured at the solution (phase_error)
-        phase[i] = min(0.5 * S * float(np.mean(shift**2)), 0.25 * tols[i])
-        work[i, :m] = reduced
-        work[i, m] = T
-        period[i] = T
-        periodic[i] = True
-    order = np.argsort(work, axis=1, kind="stable")
-    return {"work": np.take_along_axis(work, order, axis=1), "order": order,
-            "periodic": periodic, "period": period, "phase": phase, "shift": shifts,
-            "dT": out[:, 1], "need": need, "tmax": ts[:, -1]}
+            rounding = 0.5 * S[k] * ulp**2
+        raise ValueError(
+            f"{_where(batched, need[k])}t = {tmax:g} is beyond what float64 resolves: "
+            f"the spacing of float64 numbers there is {ulp:.3g}, which at speeds up to "
+            f"{math.sqrt(S[k]):.3g} moves the state by {math.sqrt(S[k]) * ulp:.3g} (L_tot "
+            f"{rounding:.3g}), more than tol {tols[need[k]]:g} allows")
+    k = int(np.flatnonzero(verdict >= _reduce.LOOSE_FAR)[0])
+    i = need[k]
+    orbit = f"the orbit from (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}), energy {energy[k]:.10g}"
+    if verdict[k] == _reduce.LOOSE_FAR:
+        raise PeriodError(
+            f"{_where(batched, i)}the period T = {T[k]:.6g} of {orbit}, is only known to "
+            f"±{dT[k]:.2g}: it passes near q = {peak[k]:.6g} at almost zero speed, close "
+            f"to a separatrix, where T → ∞; times up to {DIRECT_HORIZON:g} are integrated "
+            "directly")
+    raise PeriodError(
+        f"{_where(batched, i)}the period of {orbit}, cannot be found: "
+        f"{_FAILURES[status[k]]} near q = {peak[k]:.6g}. The particle passes a barrier top "
+        f"at (almost) zero speed, a separatrix, where T → ∞; times up to "
+        f"{DIRECT_HORIZON:g} are integrated directly")
 
 
 def phase_error(src, plan, q, p, tols, batched=False):
@@ -197,8 +198,10 @@ def phase_error(src, plan, q, p, tols, batched=False):
 def default_interval(ts, periodic):
     """Output interval per row (see :func:`~nh_operators.integrate`), (N,).
 
-    The spacing of the asked times when they are an even grid from 0 (not for rows
-    answered from one period), else the spacing of :data:`TIMES`.
+    The spacing of the asked times when they are an even grid from 0, else the spacing
+    of :data:`TIMES`. A row answered from one period whose asked times are an even grid
+    of m times gets 2 / (m - 1): the spacing of the same scene on [0, 2], so that its
+    substep levels are the ones a solve on [0, 2] goes through.
     """
     n, m = ts.shape
     interval = np.full(n, TIMES[1] - TIMES[0])
@@ -206,6 +209,6 @@ def default_interval(ts, periodic):
         gaps = np.diff(ts, axis=1)
         g0 = gaps[:, 0]
         even = (ts[:, 0] == 0.0) & (g0 > 0) & (np.abs(gaps - g0[:, None]).max(axis=1)
-                                               <= 1e-9 * g0) & ~periodic
-        interval[even] = g0[even]
+                                               <= 1e-9 * g0)
+        interval[even] = np.where(periodic[even], PERIODIC_FROM / (m - 1), g0[even])
     return interval

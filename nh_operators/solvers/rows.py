@@ -180,20 +180,19 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
     order = plan["order"]
     if order is None:  # asked columns are work columns 0..m-1
         col = np.broadcast_to(np.arange(m), (n, m))
-    else:  # work column of each sorted asked column
-        col = np.argsort(order, axis=1, kind="stable")[:, :m]
+    else:  # work column of each sorted asked column, then of T
+        col = plan["column"][:, :m]
     # the estimate averages the asked times and, for a row answered from one period,
     # the time T itself (whose return to the start is checked below)
     if shared:  # every work time is asked; one row of weights for all
         weight = np.full((1, work.shape[1]), 1.0 / work.shape[1])
-    else:
-        weight = np.zeros(work.shape)
-        np.put_along_axis(weight, col, 1.0, 1)
-        if order is not None:
-            tail = np.argsort(order, axis=1, kind="stable")[:, m]
-            with_t = np.flatnonzero(periodic & np.isfinite(plan["period"]))
-            weight[with_t, tail[with_t]] = 1.0
-        weight /= weight.sum(axis=1, keepdims=True)
+    elif order is None:
+        weight = np.full((1, m), 1.0 / m)
+    else:  # column m is T, or for a row without a period a copy of the last time
+        weight = np.full(work.shape, 1.0 / (m + 1))
+        copy = ~(periodic & np.isfinite(plan["period"]))
+        weight[copy] = 1.0 / m
+        weight[copy, m] = 0.0
     rows = np.arange(n)
     q_out = np.empty((n, work.shape[1]))
     p_out = np.empty_like(q_out)
@@ -206,7 +205,8 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
     while rows.size:
         q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method,
                         shared)
-        raw = _kernels.level_gap(q, p, q2, p2, weight if shared else weight[rows])
+        raw = _kernels.level_gap(q, p, q2, p2, weight if weight.shape[0] == 1 else
+                                 weight[rows])
         estimate = raw
         substeps *= 2
         if n == 1:
@@ -238,8 +238,7 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         rows, q, p = rows[keep], q2[keep], p2[keep]
     checked = np.flatnonzero(periodic & np.isfinite(plan["period"]))
     if checked.size:
-        last = work.shape[1] - 1
-        pos = np.argsort(plan["order"][checked], axis=1)[:, last]
+        pos = plan["column"][checked, m]
         miss = 0.5 * ((q_out[checked, pos] - q0s[checked]) ** 2
                       + (p_out[checked, pos] - p0s[checked]) ** 2)
         bad = np.flatnonzero(miss > 10 * tols[checked])

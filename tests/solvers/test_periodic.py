@@ -38,7 +38,26 @@ def test_sho_from_any_state_short_and_at_1e6(q0, p0):
     sol = solve_classical("sho", t, tol=1e-10, q0=q0, p0=p0)
     assert sol.error_estimate <= 1e-10
     assert true_loss(sol, *sho_exact(q0, p0, t)) <= 1e-10
+    # T is found as accurately as the horizon needs (the answers above are the contract),
+    # here about 1e-13 relative; the finest quadrature is tested below
     assert abs(sol.period - math.pi / 2) <= 1e-12
+
+
+def test_period_accuracy_follows_the_horizon():
+    """A nearer horizon or a looser tol (a larger drift rate) asks the quadrature for a
+    coarser T, never one worse than 1e-9 relative; each bound covers the difference."""
+    from nh_operators.potentials import BoundedPotentialSpace
+
+    pot = BoundedPotentialSpace.potentials(BoundedPotentialSpace(seed=42).random(4))[3]
+    src = row_source(pot, "exact V")
+    start = (np.array([0]), np.array([0.0]), np.array([0.0]))
+    fine, _ = orbit_periods(src, *start)
+    coarse, status = orbit_periods(src, *start, np.array([1.0]))
+    assert status[0] == 0
+    T = fine[0, 0]
+    assert fine[0, 1] <= 1e-11 * T
+    assert 2 * fine[0, 1] < coarse[0, 1] <= 1e-9 * T  # the rate was followed, capped
+    assert abs(coarse[0, 0] - T) <= coarse[0, 1] + fine[0, 1]
 
 
 @pytest.mark.parametrize("q0, p0", [(0.0, 0.0), (0.2, 1.0), (0.6, -1.5)])
@@ -241,3 +260,23 @@ def test_horizon_contract(pots):
     for (tol, horizon), (share, worst, ratio) in rows.items():
         assert share == 1.0 and worst <= 1.0, (tol, horizon, worst)
         assert ratio <= 2.0, (tol, horizon, ratio)
+
+
+def test_compiled_ulp_is_numpy_spacing():
+    from nh_operators.solvers._reduce import ulp
+
+    xs = [0.0, 5e-324, 1e-310, 1e-300, 0.1, 1.0, 2.0, 3.0, 1e6, 1e6 - 0.1, 1e300, 1.7e308]
+    for x in xs:
+        assert ulp(x) == np.spacing(x), x
+        assert ulp(-x) == np.spacing(x), x
+
+
+def test_far_scene_starts_from_the_spacing_on_0_2():
+    """A row answered from one period starts its levels where the same m even times on
+    [0, 2] would: 2 / (m - 1); uneven times start from the standard grid's spacing."""
+    from nh_operators.solvers.periodic import default_interval
+
+    ts = np.stack([np.linspace(0, 1e6, 20), np.linspace(0, 2, 20),
+                   np.r_[0.0, np.geomspace(1, 1e6, 19)]])
+    got = default_interval(ts, np.array([True, False, True]))
+    np.testing.assert_allclose(got, [2 / 19, 2 / 19, nh.TIMES[1]], rtol=1e-15)
