@@ -1,0 +1,98 @@
+"""CPU training throughput against thread count and ``torch.compile`` (issue 13, §3).
+
+    python benchmarks/cpu_throughput.py [--models traonet,fno] [--threads 1 2]
+                                        [--batch 50] [--repeats 20] [--modes eager]
+
+Two trainings side by side, one thread each (how this project trains on 2 cores), are
+measured by starting two copies at once with ``--threads 1 --modes eager``.
+
+For each network (the shipped recipe's options: TraONet and MambONet without query
+self-attention, pre-norm and GELU; the `cpu` preset), one training step is forward, MSE
+on the 100-time grid, backward and an AdamW update at batch ``--batch``, on random
+inputs (throughput does not depend on values). Rows: eager PyTorch, and the same
+network wrapped in ``torch.compile`` (default mode; its first steps, the compilation,
+are timed apart). Reported: median samples/s over ``--repeats`` steps after 3 warm-up
+steps, and the ratio to eager at the same thread count. Run it on a quiet machine: a
+second process on the cores changes every number.
+"""
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+import torch
+
+import nh_operators as nh
+
+nh._ensure_pytorch_backend()
+
+ARCH = {"traonet": {"query_attention": False, "norm_first": True, "activation": "gelu"},
+        "mambonet": {"query_attention": False, "norm_first": True, "activation": "gelu"},
+        "varonet": {"encoder_cell": True}, "deeponet": {}, "fno": {}}
+
+
+def step_time(net, V, t, y, repeats):
+    """(seconds of the first 3 steps, median seconds per step after them)."""
+    opt = torch.optim.AdamW(net.parameters(), lr=1e-4)
+
+    def step():
+        opt.zero_grad(set_to_none=True)
+        loss = torch.mean((net((V, t)) - y) ** 2)
+        loss.backward()
+        opt.step()
+
+    start = time.perf_counter()
+    for _ in range(3):
+        step()
+    first = time.perf_counter() - start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        step()
+        times.append(time.perf_counter() - start)
+    return first, statistics.median(times)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", default="traonet,fno")
+    parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--batch", type=int, default=50)
+    parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--modes", nargs="+", default=["eager", "compiled"],
+                        choices=["eager", "compiled"])
+    args = parser.parse_args()
+    rng = np.random.default_rng(0)
+    V = torch.as_tensor(rng.uniform(-2, 2, (args.batch, 100)), dtype=torch.float32)
+    y = torch.as_tensor(rng.uniform(-1, 1, (args.batch, 100, 2)), dtype=torch.float32)
+    t = torch.linspace(0, 2, 100)[:, None]
+    print(f"torch {torch.__version__}; batch {args.batch}; medians of {args.repeats} "
+          "steps after 3 warm-up steps")
+    print(f"{'model':<10}{'threads':>8}  {'mode':<9}{'samples/s':>11}{'vs eager':>10}"
+          f"{'first 3 steps, s':>18}")
+    for name in args.models.split(","):
+        for threads in args.threads:
+            torch.set_num_threads(threads)
+            eager = None
+            for mode in args.modes:
+                torch.manual_seed(0)
+                net = nh.build_model(name, "cpu", **ARCH.get(name, {}))
+                net.train()
+                if mode == "compiled":
+                    torch._dynamo.reset()
+                    net = torch.compile(net)
+                try:
+                    first, step = step_time(net, V, t, y, args.repeats)
+                except Exception as err:  # report a compiler that fails, go on
+                    print(f"{name:<10}{threads:>8}  {mode:<9}  failed: "
+                          f"{type(err).__name__}: {str(err).splitlines()[0][:80]}")
+                    continue
+                rate = args.batch / step
+                eager = eager or rate
+                print(f"{name:<10}{threads:>8}  {mode:<9}{rate:>11,.0f}{rate / eager:>10.2f}"
+                      f"{first:>18.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
