@@ -1,6 +1,14 @@
 """TraONet: a transformer encoder over the potential, a transformer decoder over time."""
 
+import math
+
+import torch
+
 from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
+
+#: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],
+#: and |p| ≤ sqrt(2 (V0 − min V)) ≤ sqrt(8) for the generator's V ≥ −2.
+Q_MID, Q_HALF, P_MAX = 0.5, 0.5, math.sqrt(8.0)
 
 __all__ = ["TraONet"]
 
@@ -29,6 +37,9 @@ class TraONet(OperatorNet):
             ``query_coupled`` is False.
         norm_first: pre-norm transformer layers (default False: post-norm, PyTorch's).
         activation: "relu" (default) or "gelu" in the feed-forward blocks.
+        scaled_outputs: False (default): the output layer predicts q and p themselves.
+            True: it predicts (2q − 1, p / sqrt(8)), both within [−1, 1], and the network
+            maps them back, so the loss and the outputs are unchanged in meaning.
 
     Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
 
@@ -43,7 +54,8 @@ class TraONet(OperatorNet):
 
     def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
                  dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2,
-                 query_attention=True, norm_first=False, activation="relu"):
+                 query_attention=True, norm_first=False, activation="relu",
+                 scaled_outputs=False):
         super().__init__()
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
@@ -54,6 +66,12 @@ class TraONet(OperatorNet):
         self.decoder = TimeDecoder(d_model, nhead, num_layers, dim_feedforward,
                                    n_outputs, dropout, time_scale, query_attention,
                                    norm_first, activation)
+        if scaled_outputs and n_outputs != 2:
+            raise ValueError(f"scaled_outputs needs n_outputs = 2 (q and p), got {n_outputs}")
+        self.scaled_outputs = bool(scaled_outputs)
 
     def _forward(self, V, t):
-        return self.decoder(t, self.encoder(self.embedding(V)))
+        y = self.decoder(t, self.encoder(self.embedding(V)))
+        if self.scaled_outputs:
+            y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
+        return y
