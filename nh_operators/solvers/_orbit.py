@@ -72,8 +72,8 @@ def orbit_period(value, force, par, q0, p0, rate, out):
     rate: the drift of the state per unit time that T's error may cause. An error δT
     moves the state by up to (t/T) δT sqrt(S) at time t, so T is aimed at the relative
     accuracy rate / sqrt(S), between :data:`REL_FINEST` and :data:`REL_COARSEST` (rate 0:
-    the finest). A far horizon
-    or a tight tolerance needs a finer T than a near one (:func:`.periodic.plan_horizon`).
+    the finest). A far horizon or a tight tolerance needs a finer T than a near one
+    (:func:`.periodic.plan_horizon`).
 
     out: T, its error bound, a, b, S (a bound on p² + V'² along the orbit), the energy,
     and q where the integrand peaked (a barrier top when the quadrature fails).

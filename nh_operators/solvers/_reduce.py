@@ -31,8 +31,8 @@ def ulp(x):
 
 
 @numba.njit(**_JIT)
-def plan_rows(ts, tols, need, out, status, loose, direct_horizon, work, order, column,
-              shifts, phase, period, periodic, verdict):
+def plan_rows(ts, tols, need, out, status, loose, direct_horizon, work, column, shifts,
+              phase, period, periodic, verdict):
     """Fill the plan of rows ``need`` (see :func:`.periodic.plan_horizon`).
 
     Args:
@@ -41,11 +41,12 @@ def plan_rows(ts, tols, need, out, status, loose, direct_horizon, work, order, c
         loose: a period known worse than this share of T is not used;
         direct_horizon: without a usable period, rows up to this time are integrated
             directly.
-        work (N, M + 1), order (N, M + 1) int64 (work[i] sorted = work[i][order[i]]),
-            column (N, M + 1) int64 (its inverse: where each unsorted column went),
-            shifts (N, M), phase, period, periodic (N,): written for the rows of ``need``; verdict (K,): one of USE, STILL,
-            DIRECT, BEYOND (a time finer than float64 resolves), LOOSE_FAR, FAILED_FAR
-            (no usable period and a horizon beyond ``direct_horizon``).
+        work (N, M + 1): each row of ``need`` reduced into one period, then sorted;
+        column (N, M + 1) int64: the sorted column each unsorted one went to;
+        shifts (N, M), phase, period, periodic (N,): written for the rows of ``need``;
+        verdict (K,): one of USE, STILL, DIRECT, BEYOND (a time finer than float64
+            resolves), LOOSE_FAR, FAILED_FAR (no usable period and a horizon beyond
+            ``direct_horizon``).
     """
     m = ts.shape[1]
     for k in range(need.shape[0]):
@@ -97,8 +98,7 @@ def plan_rows(ts, tols, need, out, status, loose, direct_horizon, work, order, c
         period[i] = T
         periodic[i] = True
         verdict[k] = USE
-        row_order = np.argsort(work[i], kind="mergesort")
-        order[i] = row_order
-        work[i] = work[i][row_order]
+        order = np.argsort(work[i], kind="mergesort")
+        work[i] = work[i][order]
         for j in range(m + 1):
-            column[i, row_order[j]] = j
+            column[i, order[j]] = j

@@ -99,11 +99,10 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
             tolerances on L_tot; batched: name rows in messages.
 
     Returns:
-        dict with ``work`` (N, M or M + 1) sorted working times, ``order`` (N, M + 1)
-        the argsort of each working row and ``column`` its inverse (the sorted column of
-        each asked time, then of T; both None when no row needs a period), ``periodic``
-        (N,) bool, ``period`` (N,) T (nan when unused), ``phase`` (N,) the phase bound
-        on L_tot.
+        dict with ``work`` (N, M or M + 1) sorted working times, ``column`` (N, M + 1)
+        the sorted column of each asked time, then of T (None when no row needs a
+        period), ``periodic`` (N,) bool, ``period`` (N,) T (nan when unused), ``phase``
+        (N,) the phase bound on L_tot.
 
     Raises:
         ValueError: a time beyond what float64 resolves.
@@ -115,24 +114,21 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
     periodic = np.zeros(n, dtype=bool)
     need = np.flatnonzero(ts[:, -1] > PERIODIC_FROM)
     if need.size == 0:
-        return {"work": ts, "order": None, "column": None, "periodic": periodic,
-                "period": period, "phase": phase}
+        return {"work": ts, "column": None, "periodic": periodic, "period": period,
+                "phase": phase}
     # L_tot of a shift s is about s² S / 2: allow PHASE_SHARE · tol at the latest time
     rate = np.sqrt(2.0 * PHASE_SHARE * tols[need]) / ts[need, -1]
     out, status = orbit_periods(src, need, q0s, p0s, rate)
     work = np.concatenate([ts, ts[:, -1:]], axis=1)
-    order = np.empty(work.shape, dtype=np.int64)
-    order[:] = np.arange(m + 1)
-    column = order.copy()
+    column = np.empty(work.shape, dtype=np.int64)
+    column[:] = np.arange(m + 1)  # rows without a period keep their (sorted) order
     shifts = np.zeros((n, m))
     verdict = np.empty(need.size, dtype=np.int64)
     _reduce.plan_rows(np.ascontiguousarray(ts), tols, need, out, status, _LOOSE,
-                      DIRECT_HORIZON, work, order, column, shifts, phase, period, periodic,
-                      verdict)
+                      DIRECT_HORIZON, work, column, shifts, phase, period, periodic, verdict)
     if verdict.max() >= _reduce.BEYOND:
         _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched)
-    return {"work": work, "order": order, "column": column, "periodic": periodic,
-            "period": period,
+    return {"work": work, "column": column, "periodic": periodic, "period": period,
             "phase": phase, "shift": shifts, "dT": out[:, 1], "need": need,
             "tmax": ts[:, -1]}
 
@@ -210,5 +206,5 @@ def default_interval(ts, periodic):
         g0 = gaps[:, 0]
         even = (ts[:, 0] == 0.0) & (g0 > 0) & (np.abs(gaps - g0[:, None]).max(axis=1)
                                                <= 1e-9 * g0)
-        interval[even] = np.where(periodic[even], PERIODIC_FROM / (m - 1), g0[even])
+        interval[even] = np.where(periodic[even], TIMES[-1] / (m - 1), g0[even])
     return interval

@@ -172,27 +172,22 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
     m = ts.shape[1]
     plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
     work, periodic = plan["work"], plan["periodic"]
+    column = plan["column"]  # None: no row answered from a period, work = asked times
     # one grid for all rows: shared times, none answered from a period
-    shared = t.ndim == 1 and plan["order"] is None
+    shared = t.ndim == 1 and column is None
     interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
                 else default_interval(ts, periodic))
     solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
-    order = plan["order"]
-    if order is None:  # asked columns are work columns 0..m-1
-        col = np.broadcast_to(np.arange(m), (n, m))
-    else:  # work column of each sorted asked column, then of T
-        col = plan["column"][:, :m]
-    # the estimate averages the asked times and, for a row answered from one period,
-    # the time T itself (whose return to the start is checked below)
-    if shared:  # every work time is asked; one row of weights for all
-        weight = np.full((1, work.shape[1]), 1.0 / work.shape[1])
-    elif order is None:
+    # rows answered from one period: their work column m is T, whose return to the
+    # start is checked below; other rows have a copy of their last time there
+    with_t = periodic & np.isfinite(plan["period"])
+    # the estimate averages the asked times and, for a row answered from one period, T
+    if column is None:  # every work time is asked; one row of weights for all
         weight = np.full((1, m), 1.0 / m)
-    else:  # column m is T, or for a row without a period a copy of the last time
+    else:
         weight = np.full(work.shape, 1.0 / (m + 1))
-        copy = ~(periodic & np.isfinite(plan["period"]))
-        weight[copy] = 1.0 / m
-        weight[copy, m] = 0.0
+        weight[~with_t] = 1.0 / m
+        weight[~with_t, m] = 0.0
     rows = np.arange(n)
     q_out = np.empty((n, work.shape[1]))
     p_out = np.empty_like(q_out)
@@ -236,9 +231,9 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         previous[rows] = raw
         keep = ~done
         rows, q, p = rows[keep], q2[keep], p2[keep]
-    checked = np.flatnonzero(periodic & np.isfinite(plan["period"]))
+    checked = np.flatnonzero(with_t)
     if checked.size:
-        pos = plan["column"][checked, m]
+        pos = column[checked, m]
         miss = 0.5 * ((q_out[checked, pos] - q0s[checked]) ** 2
                       + (p_out[checked, pos] - p0s[checked]) ** 2)
         bad = np.flatnonzero(miss > 10 * tols[checked])
@@ -249,11 +244,11 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
                               f"{plan['period'][i]:.10g} found by quadrature (squared miss "
                               f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
                               "stepped over")
-    if order is None:  # the work columns are the asked ones
+    if column is None:  # the work columns are the asked ones
         qa, pa = q_out, p_out
     else:
-        qa = np.take_along_axis(q_out, col, 1)
-        pa = np.take_along_axis(p_out, col, 1)
+        qa = np.take_along_axis(q_out, column[:, :m], 1)
+        pa = np.take_along_axis(p_out, column[:, :m], 1)
     phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
     q_final, p_final = np.empty((n, m)), np.empty((n, m))
     if t.ndim == 1:
