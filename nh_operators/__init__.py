@@ -26,7 +26,7 @@ __getattr__, __dir__, _names = _attach(__name__, {
     "data": ["OperatorData", "generate_dataset", "load_dataset"],
     "evaluation": ["CLASSICAL_METHODS", "ClassicalMethod", "EvaluationSettings",
                    "NeuralMethod", "evaluate_methods", "extreme_potentials"],
-    "models": ["MODELS", "build_model", "count_parameters", "predict"],
+    "models": ["MODELS", "build_model", "count_parameters", "from_reference", "predict"],
     "potentials": ["PHYSICAL_POTENTIALS", "AnalyticPotential", "BoundedPotential",
                    "BoundedPotentialSpace", "ExtendedPotential", "OutOfDomainWarning",
                    "check_bounded", "domain_violations", "extend_monotone", "parse_potential"],

@@ -74,6 +74,9 @@ class Mamba(nn.Module):
       conv_bias: whether the convolution has a bias (True).
       bias: whether ``in_proj`` and ``out_proj`` have biases (False).
       layer_idx: index of the block in a stack; stored only, as in ``mamba_ssm``.
+      fp32_A: take A = -exp(A_log) in float32 whatever the module's dtype, as the
+        pure-PyTorch Mamba of the paper's reference code does (default False: in the
+        working dtype). It changes float64 results only (by ~1e-12 here).
       device, dtype: factory arguments of the parameters. ``A_log`` and ``D`` are always
         float32 (until the module is cast, e.g. by ``.double()``).
 
@@ -96,7 +99,7 @@ class Mamba(nn.Module):
 
     def __init__(self, d_model, d_state=16, d_conv=4, expand=2, dt_rank="auto",
                  dt_min=0.001, dt_max=0.1, dt_init_floor=1e-4, conv_bias=True,
-                 bias=False, layer_idx=None, device=None, dtype=None):
+                 bias=False, layer_idx=None, fp32_A=False, device=None, dtype=None):
         super().__init__()
         if not 0 < dt_min <= dt_max:
             raise ValueError(f"need 0 < dt_min <= dt_max, got {dt_min}, {dt_max}")
@@ -108,6 +111,7 @@ class Mamba(nn.Module):
         self.d_inner = int(expand * d_model)
         self.dt_rank = math.ceil(d_model / 16) if dt_rank == "auto" else int(dt_rank)
         self.layer_idx = layer_idx
+        self.fp32_A = bool(fp32_A)
         d_inner = self.d_inner
 
         self.in_proj = nn.Linear(d_model, 2 * d_inner, bias=bias, **factory)
@@ -165,7 +169,8 @@ class Mamba(nn.Module):
 
         # float32 at least for the scan (half precision would lose the state)
         work = torch.promote_types(x.dtype, torch.float32)
-        A = -torch.exp(self.A_log.to(work))
+        A_log = self.A_log.float() if self.fp32_A else self.A_log.to(work)
+        A = -torch.exp(A_log).to(work)
         delta = F.softplus(dt_raw.to(work) + self.dt_proj.bias.to(work))
         x_w = x.to(work)
         y = selective_scan(x_w, delta, A, B.to(work), C.to(work))

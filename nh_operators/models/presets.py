@@ -28,6 +28,29 @@ ARCHITECTURES = {
     },
 }
 
+#: Sizes of the ``reference`` variants (the authors' networks), in our constructor
+#: names. ``paper``: the authors' run configs (DeepONet nodes 128, layers 3, branches 10;
+#: VaRONet hidden_size 512, num_layers 4, latent_size 30; TraONet d_model 64, nhead 8,
+#: num_layers 3, dim_feedforward 512; MambONet d_model 128, num_layers1 4, n_head 4,
+#: num_layers2 4, d_ff 1024), giving their parameter counts 36,650, 63,089,726, 731,778
+#: and 2,448,258. ``cpu``: the sizes of our ``cpu`` preset (DeepONet: the paper's).
+REFERENCE_ARCHITECTURES = {
+    "paper": {
+        "deeponet": dict(hidden_size=256, branches=10),
+        "traonet": dict(d_model=64, nhead=8, num_layers=3, dim_feedforward=512),
+        "varonet": dict(hidden_size=512, num_layers=4, latent_dim=30),
+        "mambonet": dict(d_model=128, num_mamba_layers=4, nhead=4,
+                         num_decoder_layers=4, dim_feedforward=1024),
+    },
+    "cpu": {
+        "deeponet": dict(hidden_size=256, branches=10),
+        "traonet": dict(d_model=32, nhead=4, num_layers=2, dim_feedforward=128),
+        "varonet": dict(hidden_size=64, num_layers=2, latent_dim=16),
+        "mambonet": dict(d_model=32, num_mamba_layers=2, nhead=4,
+                         num_decoder_layers=2, dim_feedforward=128),
+    },
+}
+
 #: The paper's TPE optimum (ExpHyperbolicLR, AdamW betas (0.85, 0.98), batch 100).
 TRAINING = {
     "deeponet": dict(lr=7.3256e-3, upper_bound=300, infimum_lr=1.7369e-3),

@@ -7,11 +7,13 @@ import torch
 from .deeponet import DeepONet
 from .fno import FNO
 from .mambonet import MambONet
-from .presets import ARCHITECTURES, PRESETS, TRAINING
+from .presets import ARCHITECTURES, PRESETS, REFERENCE_ARCHITECTURES, TRAINING
+from .reference import REFERENCE_MODELS
 from .traonet import TraONet
 from .varonet import VaRONet
 
-__all__ = ["MODELS", "PRESETS", "build_model", "cast_network", "model_config", "training_defaults", "count_parameters"]
+__all__ = ["MODELS", "PRESETS", "VARIANTS", "build_model", "cast_network", "model_config",
+           "training_defaults", "count_parameters"]
 
 #: name → network class.
 MODELS = {
@@ -23,28 +25,42 @@ MODELS = {
 }
 
 
-def _check(name, preset):
-    if name not in MODELS:
-        raise ValueError(f"unknown model {name!r}; choose from {sorted(MODELS)}")
-    if preset not in ARCHITECTURES:
+#: variant → (name → class, preset → name → constructor arguments). "ours" (the
+#: default): this project's networks; "reference": the authors' networks as their code
+#: at 5c4cbd8 builds them (:func:`~nh_operators.models.from_reference`; no FNO).
+VARIANTS = {
+    "ours": (MODELS, ARCHITECTURES),
+    "reference": (REFERENCE_MODELS, REFERENCE_ARCHITECTURES),
+}
+
+
+def _check(name, preset, variant="ours"):
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown variant {variant!r}; choose from {list(VARIANTS)}")
+    models, architectures = VARIANTS[variant]
+    if name not in models:
+        raise ValueError(f"unknown model {name!r} for variant {variant!r}; choose from "
+                         f"{sorted(models)}")
+    if preset not in architectures:
         raise ValueError(f"unknown preset {preset!r}; choose from {list(PRESETS)}")
+    return models[name], architectures[preset][name]
 
 
-def model_config(name, preset="paper", **overrides):
+def model_config(name, preset="paper", variant="ours", **overrides):
     """The constructor arguments ``build_model`` would use.
 
     Raises:
-        ValueError: for an unknown name, preset or argument.
+        ValueError: for an unknown name, preset, variant or argument.
     """
-    _check(name, preset)
-    allowed = set(inspect.signature(MODELS[name]).parameters)
+    cls, preset_args = _check(name, preset, variant)
+    allowed = set(inspect.signature(cls).parameters)
     unknown = sorted(set(overrides) - allowed)
     if unknown:
         raise ValueError(f"{name} has no argument(s) {unknown}; it takes {sorted(allowed)}")
-    return {**ARCHITECTURES[preset][name], **overrides}
+    return {**preset_args, **overrides}
 
 
-def build_model(name, preset="paper", **overrides):
+def build_model(name, preset="paper", variant="ours", **overrides):
     """Build a network from the registry.
 
     Args:
@@ -52,6 +68,8 @@ def build_model(name, preset="paper", **overrides):
             "fno").
         preset: "paper" (the paper's optimal architecture) or "cpu" (small: an epoch
             of the standard dataset in under a minute on a 2-core CPU).
+        variant: "ours" (default: this project's networks) or "reference" (the authors'
+            networks as their code builds them, :data:`VARIANTS`; all but "fno").
         **overrides: constructor arguments replacing the preset's.
 
     Returns:
@@ -60,7 +78,7 @@ def build_model(name, preset="paper", **overrides):
         for reproducible weights.
 
     Raises:
-        ValueError: for an unknown name, preset or argument.
+        ValueError: for an unknown name, preset, variant or argument.
 
     Example:
         >>> import torch
@@ -68,8 +86,8 @@ def build_model(name, preset="paper", **overrides):
         >>> net((torch.zeros(2, 100), torch.zeros(5, 1))).shape
         torch.Size([2, 5, 2])
     """
-    config = model_config(name, preset, **overrides)
-    return MODELS[name](**config)
+    config = model_config(name, preset, variant, **overrides)
+    return VARIANTS[variant][0][name](**config)
 
 
 def training_defaults(name):
