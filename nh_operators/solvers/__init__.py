@@ -8,7 +8,7 @@ the adaptive classical solve to a tolerance. Imports :mod:`nh_operators.potentia
 from .._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "classical_solve": ["SAFETY", "ClassicalSolution", "adaptive_solve", "coerce_potential",
+    "classical_solve": ["RESOLVED_STEP", "ClassicalSolution", "adaptive_solve", "coerce_potential",
                         "solve_classical"],
     "fixed_step": ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"],
     "periodic": ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError"],
