@@ -86,25 +86,31 @@ def domain_table(paths):
               + " | ".join(f"{in_domain(V, d).mean():.1%}" for V in sets.values()) + " |")
 
 
+FAMILIES = ("in distribution", "sensors", "other distribution", "out of distribution")
+
+
 def calibration_table():
     """The calibration of each shipped model (``calibration.json``, ``nh-operators
-    calibrate``): its estimate's factor in and out of distribution, the medians on the
-    calibration set, and one network solve's time."""
-    print("\n| model | factor, generator potentials (n) | factor, out-of-distribution (n in "
-          "its domain) | factor used | median true L_tot | median estimate | network solve, "
-          "µs | load average |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    calibrate``): per family of calibration inputs, how many the domain admitted and the
+    bound on the 99.9 % quantile of true / (E + D); the factor used (the largest bound);
+    the median estimate / true on the in-distribution family; one network solve's time."""
+    print("\n| model | " + " | ".join(f"{f}: admitted, bound" for f in FAMILIES)
+          + " | factor | median estimate / true | network solve, µs | load average |")
+    print("|---|" + "---:|" * (len(FAMILIES) + 4))
     for name in available_pretrained():
         path = WEIGHTS / name / "calibration.json"
         if not path.is_file():
-            print(f"| {name} | not calibrated | | | | | | |")
+            print(f"| {name} | not calibrated |" + " |" * (len(FAMILIES) + 3))
             continue
         c = json.loads(path.read_text())
-        median = c["probabilities"].index(0.5)
-        print(f"| {name} | {c['factor_in_distribution']:.3g} ({c['n']}) | "
-              f"{c.get('factor_ood', float('nan')):.3g} ({c.get('n_ood', 0)}) | "
-              f"{c['factor']:.3g} | {c['L_quantiles'][median]:.2g} | "
-              f"{c['estimate_quantiles'][median]:.2g} | {1e6 * c['neural_seconds']:.0f} | "
+        cells = []
+        for fam in FAMILIES:
+            f = c.get("families", {}).get(fam)
+            cells.append("–" if not f else f"{f['admitted']}/{f['drawn']}, "
+                         + (f"{f['ratio_bound']:.3g}" if f["admitted"] else "–"))
+        median = c["factor"] / c["families"]["in distribution"]["ratio_median"]
+        print(f"| {name} | " + " | ".join(cells) + f" | {c['factor']:.3g} | {median:.3g} | "
+              f"{1e6 * c['neural_seconds']:.0f} | "
               f"{c['device'].get('load_average', float('nan'))} |")
 
 

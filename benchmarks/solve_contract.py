@@ -5,7 +5,7 @@ potentials (exact B-spline curves, each at a random subset of the 100 grid times
 the stored labels) and on potentials from outside the training distribution
 (``nh_operators.potentials.ood`` families and the five physical potentials, each at 1-100 random
 times in [0, 2], truth = DOP853 at 1e-13). Reported per group and tolerance: the share
-of inputs whose true L_tot ≤ tol (the contract asks ≥ 99 %), the worst true L_tot / tol,
+of inputs whose true L_tot ≤ tol (the contract asks it of every call), the worst true L_tot / tol,
 the share solved by a network, and the time against always calling the classical
 solver at the same tolerance (means and medians per call, same run, alternating order).
 

@@ -13,14 +13,21 @@ def _export(args):
 
 
 def _calibrate(args):
+    from ..data import load_dataset
     from ..solving import calibrate_pretrained
 
-    cal = calibrate_pretrained(args.model, args.data)
-    print(f"{args.model}: factor {cal['factor']:.3g} = the larger 99.5 % quantile of L_tot / "
-          f"(E + D): {cal['factor_in_distribution']:.3g} on {cal['n']} generator potentials, "
-          f"{cal.get('factor_ood', 0):.3g} on {cal.get('n_ood', 0)} out-of-distribution ones; "
-          f"median estimate {cal['estimate_quantiles'][5]:.3g}, median L_tot "
-          f"{cal['L_quantiles'][5]:.3g}; network solve {1e6 * cal['neural_seconds']:.0f} µs")
+    other = load_dataset(args.other).potentials() if args.other else None
+    for model in args.model:
+        cal = calibrate_pretrained(model, args.data, other=other,
+                                   timings_only=args.timings_only)
+        fams = "; ".join(f"{fam} {f['admitted']}/{f['drawn']}"
+                         + (f", median {f['ratio_median']:.2g}, bound {f['ratio_bound']:.3g}"
+                            if f["admitted"] else "")
+                         for fam, f in cal["families"].items())
+        print(f"{model}: factor {cal['factor']:.3g} (the largest bound on the "
+              f"{100 * cal['quantile']:g} % quantile of true L_tot / (E + D), "
+              f"{100 * cal['confidence']:g} % confidence; {fams}); network solve "
+              f"{1e6 * cal['neural_seconds']:.0f} µs", flush=True)
 
 
 def register(sub):
@@ -40,7 +47,12 @@ def register(sub):
     ex.set_defaults(run=_export)
     ca = sub.add_parser("calibrate", help="calibrate a shipped model's error estimate for "
                         "solve (writes nh_operators/solving/weights/NAME/calibration.json)")
-    ca.add_argument("--model", required=True, help="a shipped model")
-    ca.add_argument("--data", required=True, type=existing_file, help="labelled .h5 from neither the training "
-                    "nor the test seed (e.g. generate --size 2000 --seed 2718)")
+    ca.add_argument("--model", required=True, nargs="+", help="shipped model(s)")
+    ca.add_argument("--data", required=True, type=existing_file, help="labelled .h5 of the "
+                    "models' own distribution from neither the training nor the test seed "
+                    "(e.g. generate --size 2000 --seed 2718)")
+    ca.add_argument("--other", type=existing_file, help=".h5 of the other generator's "
+                    "potentials (those inside a model's domain join its calibration)")
+    ca.add_argument("--timings-only", action="store_true", help="keep the factor; measure "
+                    "the network's and the classical solve's times again (quiet machine)")
     ca.set_defaults(run=_calibrate)

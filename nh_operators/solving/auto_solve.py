@@ -13,9 +13,10 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
    ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
    T_classical(tol), where T_classical is the one for this kind of input (a generator
    B-spline, sensor values, or a formula, which the solver integrates in Python).
-3. The cheapest candidate predicts on :data:`TIMES`; its estimate is ``factor · (E + D)``
-   (energy residual plus Picard defect, :mod:`nh_operators.solving.estimate`). At or below
-   ``tol`` its prediction, interpolated to ``t`` by cubic splines, is returned;
+3. The cheapest candidate predicts on :data:`TIMES`, interpolated to ``t`` by cubic
+   splines; its estimate is ``factor · (E + D)`` (energy residual plus Picard defect at
+   the asked times, :mod:`nh_operators.solving.estimate`). At or below ``tol`` that
+   prediction is returned;
    otherwise the classical solver runs, and the record lists both attempts.
 
 The classical solver (:func:`~nh_operators.solve_classical`) doubles RK4 substeps until
@@ -33,7 +34,7 @@ import numpy as np
 from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import CALIBRATION, WEIGHTS, available_pretrained, network_domain, resolve_pretrained
-from .estimate import acceptance_rate, raw_estimate, sensor_force
+from .estimate import acceptance_rate, estimate_at, sensor_force
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
 
@@ -117,8 +118,10 @@ def neural_solve(name, pot, information, t):
         return _neural_solve(name, pot, information, t)
 
 
-def neural_raw(name, pot, information):
-    """Model ``name``'s prediction (q, p) on :data:`TIMES` and its uncalibrated E + D."""
+def neural_raw(name, pot, information, t=TIMES):
+    """Model ``name``'s prediction at the times ``t`` (the spline through its prediction
+    on :data:`TIMES`) and its uncalibrated E + D there
+    (:func:`~nh_operators.solving.estimate.estimate_at`): (q, p, raw), q and p (M,)."""
     from ..models import predict
 
     V = _sensor_values(pot, information)
@@ -127,19 +130,16 @@ def neural_raw(name, pot, information):
         force = sensor_force(V)
     else:
         force = (_rows(pot.V), _rows(pot.dV))
-    raw = float(raw_estimate(q, p, *force)[0])
-    return q, p, (raw if np.isfinite(raw) else np.inf)  # inf: e.g. far outside [0, 1]
+    qa, pa, raw = estimate_at(q, p, *force, np.asarray(t, dtype=np.float64).reshape(-1))
+    raw = float(raw[0])
+    return qa[0], pa[0], (raw if np.isfinite(raw) else np.inf)  # inf: far outside [0, 1]
 
 
 def _neural_solve(name, pot, information, t):
-    from scipy.interpolate import CubicSpline
-
     model = _model(name)
-    q, p, raw = neural_raw(name, pot, information)
+    q, p, raw = neural_raw(name, pot, information, t)
     factor = model.calibration["factor"] if model.calibration else 1.0
-    if np.array_equal(t, TIMES):
-        return q[0], p[0], factor * raw
-    return CubicSpline(TIMES, q[0])(t), CubicSpline(TIMES, p[0])(t), factor * raw
+    return q, p, factor * raw
 
 
 #: Which of the calibration's classical timings applies to a kind of input.

@@ -8,7 +8,6 @@ machine that calibrates (recorded in the file): ``auto`` compares them only with
 other, so a faster machine shifts both alike.
 """
 
-import functools
 import json
 import time
 
@@ -21,9 +20,14 @@ from ..solvers import adaptive_solve
 from ..training import write_atomic
 from .auto_solve import _model, neural_raw, neural_solve
 from .catalog import CALIBRATION
-from .estimate import calibrate
+from .estimate import sensor_force
 
-__all__ = ["calibrate_pretrained", "CLASSICAL_TOLS"]
+__all__ = ["calibrate_pretrained", "calibration_families", "upper_quantile", "CLASSICAL_TOLS",
+           "QUANTILE", "CONFIDENCE"]
+
+#: The quantile of true / (E + D) that the factor bounds, and the confidence of the bound.
+QUANTILE = 0.999
+CONFIDENCE = 0.95
 
 #: Tolerances at which the classical solve's time is measured.
 CLASSICAL_TOLS = [10.0 ** -k for k in range(1, 13)]
@@ -41,88 +45,206 @@ def _median_seconds(fn, items, repeats=3):
     return float(np.median(times))
 
 
-@functools.lru_cache(maxsize=4)
-def _ood_cases(n, seed):
-    """Out-of-distribution potentials with their references on TIMES."""
-    from ..potentials import ood_potentials
-    from ..solvers import reference_solve
-
-    return [(pot, *reference_solve(pot, TIMES)) for pot in ood_potentials(n, seed)]
+_TIMINGS = {}
 
 
-def ood_factor(name, n, seed, quantile):
-    """The ``quantile`` of L_tot / (E + D) for model ``name`` on the out-of-distribution
-    potentials (:mod:`nh_operators.potentials.ood`) inside its domain
-    (:func:`~nh_operators.solving.catalog.network_domain`), i.e. those ``auto`` would
-    give the network; returns (factor, how many)."""
+def _classical_timings(key, pots):
+    """The classical solve's median seconds at each of :data:`CLASSICAL_TOLS` on ``pots``
+    (exact), their sensor values and three smooth formulas; measured once per process
+    and dataset (``key``), as they do not depend on the network."""
+    if key not in _TIMINGS:
+        sensors = [pot.V(SENSORS) for pot in pots]
+        formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
+        _TIMINGS[key] = {
+            field: [_median_seconds(
+                lambda pot: adaptive_solve(pot, information, TIMES, tol, "rk4"), items)
+                for tol in CLASSICAL_TOLS]
+            for field, items, information in (
+                ("classical_seconds", pots, "exact V"),
+                ("classical_seconds_sensors", sensors, "sensors"),
+                ("classical_seconds_formula", formulas, "exact V"))}
+    return _TIMINGS[key]
+
+
+def _asked_times(rng):
+    """A random call's times: one time (30 %) or 2–100 uniform times in [0, 2]."""
+    m = 1 if rng.random() < 0.3 else int(rng.integers(2, 101))
+    return rng.uniform(0.0, TIMES[-1], m)
+
+
+def _batch_ratios(name, pots, sensors, rng, group=20):
+    """true L_tot and raw E + D of model ``name`` on the rows of a batched B-spline
+    ``pots`` inside its domain, each group of rows at one random set of asked times;
+    ``sensors``: the input is the sensor values (force and truth: their spline)."""
+    from ..models import predict
     from ..potentials import in_domain
+    from ..solvers import integrate_sensors, reference_solve
+    from ..solvers.rows import row_source
+    from .catalog import network_domain
+    from .estimate import estimate_at
+
+    V = pots.V(SENSORS)
+    keep = np.flatnonzero(in_domain(V, network_domain(name)))
+    net = _model(name).net
+    true, raw = [], []
+    for lo in range(0, keep.size, group):
+        rows = keep[lo:lo + group]
+        t = _asked_times(rng)
+        q, p = predict(net, V[rows], TIMES)
+        if sensors:
+            q_ref, p_ref = integrate_sensors(V[rows], t, substeps=512, check_resolution=False)
+            force = sensor_force(V[rows])
+        else:
+            sub = type(pots)(pots.control_q[rows], pots.control_V[rows])
+            q_ref, p_ref = reference_solve(sub, t)
+            src = row_source(sub, "exact V")
+            force = (src.values_at, lambda x, src=src: -src.forces_at(x))
+        qa, pa, r = estimate_at(q, p, *force, t)
+        true.append(loss_per_sample(qa, pa, q_ref, p_ref)["L_tot"])
+        raw.append(r)
+    if not true:
+        return np.zeros(0), np.zeros(0), 0
+    return np.concatenate(true), np.concatenate(raw), int(V.shape[0])
+
+
+def _ood_ratios(name, n, seed, rng):
+    """Like :func:`_batch_ratios` on :func:`~nh_operators.potentials.ood_potentials`."""
+    from ..potentials import in_domain, ood_potentials
+    from ..solvers import reference_solve
     from .catalog import network_domain
 
-    ratios = []
-    for pot, q_ref, p_ref in _ood_cases(n, seed):
+    true, raw = [], []
+    for pot in ood_potentials(n, seed):
         if not in_domain(pot.V(SENSORS), network_domain(name)):
             continue
-        q, p, raw = neural_raw(name, pot, "exact V")
-        true = float(loss_per_sample(q[0], p[0], q_ref, p_ref)["L_tot"])
-        ratios.append(true / raw if raw > 0 else np.inf)
-    return (float(np.quantile(ratios, quantile)) if ratios else 0.0), len(ratios)
+        t = _asked_times(rng)
+        q, p, r = neural_raw(name, pot, "exact V", t)
+        true.append(float(loss_per_sample(q, p, *reference_solve(pot, t))["L_tot"]))
+        raw.append(r)
+    return np.array(true), np.array(raw), n
 
 
-def calibrate_pretrained(name, dataset, *, n_timing=30, n_ood=400, ood_seed=2719,
-                         write=True):
-    """Calibrate shipped model ``name`` on ``dataset`` and write its calibration file.
+def upper_quantile(ratios, quantile, confidence=CONFIDENCE, resamples=2000, seed=0):
+    """A bootstrap upper confidence bound on the ``quantile`` of ``ratios``: the
+    ``confidence`` quantile of the sample quantile over ``resamples`` resamples.
+
+    Example:
+        >>> r = np.random.default_rng(1).lognormal(size=3000)
+        >>> bool(np.quantile(r, 0.999) <= upper_quantile(r, 0.999) <= r.max())
+        True
+    """
+    ratios = np.asarray(ratios, dtype=np.float64)
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, ratios.size, size=(resamples, ratios.size))
+    boot = np.quantile(ratios[picks], quantile, axis=1, method="higher")
+    return float(np.quantile(boot, confidence))
+
+
+def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
+                         n_sensors=500, seed=0):
+    """The samples that calibrate model ``name``: {family: (true, raw, drawn)}.
+
+    Families: ``in distribution`` (the dataset's potentials, exact force and truth),
+    ``sensors`` (the first ``n_sensors`` as sensor values: force and truth from their
+    spline), ``other distribution`` (``other``, a labelled-free batched B-spline from
+    the other generator, if given) and ``out of distribution``
+    (:func:`~nh_operators.potentials.ood_potentials`): each only where the network's
+    domain admits it — what ``auto`` would hand the network — and each at random asked
+    times (:func:`_asked_times`), truth at exactly those times.
+    """
+    rng = np.random.default_rng(seed)
+    pots = dataset.potentials()
+    out = {"in distribution": _batch_ratios(name, pots, False, rng)}
+    head = type(pots)(pots.control_q[:n_sensors], pots.control_V[:n_sensors])
+    out["sensors"] = _batch_ratios(name, head, True, rng)
+    if other is not None:
+        out["other distribution"] = _batch_ratios(name, other, False, rng)
+    if n_ood:
+        out["out of distribution"] = _ood_ratios(name, n_ood, ood_seed, rng)
+    return out
+
+
+def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
+                         ood_seed=2719, quantile=QUANTILE, timings_only=False, write=True):
+    """Calibrate shipped model ``name`` and write its calibration file.
+
+    The factor makes ``factor · (E + D)`` at the asked times an upper bound of the true
+    L_tot per call: it is the largest, over the families of
+    :func:`calibration_families`, of a bootstrap upper bound (confidence
+    :data:`CONFIDENCE`) on the ``quantile`` of true / (E + D).
 
     Args:
         name: a shipped model (:func:`~nh_operators.available_pretrained`).
-        dataset: labelled :class:`~nh_operators.data.Dataset` on :data:`TIMES`, or the
-            path of its HDF5 file.
+        dataset: labelled :class:`~nh_operators.data.Dataset` of the model's own
+            distribution, from neither its training nor its test seed, or its path.
+        other: potentials of the other generator (a batched
+            :class:`~nh_operators.BoundedPotential`), or None.
         n_timing: potentials timed (batch 1; best of 3 each, median over them).
-        n_ood, ood_seed: out-of-distribution potentials (:func:`ood_factor`; a seed
-            other than the contract benchmark's 0): the factor becomes the larger of
-            the two quantiles, so the estimate holds on both kinds of input that
-            ``auto`` hands to a network. 0 skips them.
+        n_ood, ood_seed: out-of-distribution potentials (a seed other than the
+            contract tests').
+        quantile: the quantile of true / raw bounded.
+        timings_only: keep the stored factor; measure the network's and the classical
+            solve's times again (on a quiet machine: ``auto`` compares them).
         write: write ``weights/NAME/calibration.json`` (atomically).
 
     Returns:
-        the calibration dict: :func:`~nh_operators.solving.calibrate`'s keys plus
-        ``neural_seconds`` (one network solve on :data:`TIMES`, estimate included),
-        ``classical_tols`` / ``classical_seconds`` (the classical solve of the exact
-        potential on :data:`TIMES` at each tolerance), ``classical_seconds_sensors``
-        (from the sensor values), ``classical_seconds_formula`` (SHO, double well and
-        Morse as formulas, integrated in Python) and ``device``.
+        the calibration dict: ``factor``, ``quantile``, ``confidence``, ``families``
+        (per family: drawn, admitted, median and bounded quantile of true / raw),
+        ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
+        the in-distribution family, at ``probabilities``), ``neural_seconds``,
+        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula) and
+        ``device``.
     """
     from ..data import load_dataset
-    from ..evaluation import device_info
-    from .catalog import WEIGHTS
-
     from .catalog import resolve_pretrained
 
     name = resolve_pretrained(name)
     if not hasattr(dataset, "V"):
         dataset = load_dataset(dataset)
     model = _model(name)
-    result = calibrate(model, dataset)
-    result["factor_in_distribution"] = result["factor"]
-    if n_ood:
-        factor, count = ood_factor(name, n_ood, ood_seed, result["quantile"])
-        result.update(factor_ood=factor, n_ood=count, ood_seed=ood_seed)
-        if factor > result["factor"]:
-            scale = factor / result["factor"]
-            result["factor"] = factor
-            result["estimate_quantiles"] = [v * scale for v in result["estimate_quantiles"]]
+    if timings_only:  # keep the factor and families, measure the costs again
+        result = dict(model.calibration)
+        _timings(result, name, dataset, n_timing)
+        return _written(result, name, model, write)
+    fams = calibration_families(name, dataset, other=other, n_ood=n_ood, ood_seed=ood_seed)
+    result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
+              dataset.checksum, "ood_seed": ood_seed, "families": {}}
+    factor = 0.0
+    for fam, (true, raw, drawn) in fams.items():
+        ratio = true / np.maximum(raw, 1e-300)
+        entry = {"drawn": drawn, "admitted": int(true.size)}
+        if true.size:
+            bound = upper_quantile(ratio, quantile)
+            entry.update(ratio_median=float(np.median(ratio)), ratio_bound=bound,
+                         ratio_max=float(ratio.max()))
+            factor = max(factor, bound)
+        result["families"][fam] = entry
+    result["factor"] = factor
+    true, raw, _ = fams["in distribution"]
+    probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
+    result.update(n=int(true.size), probabilities=probabilities,
+                  estimate_quantiles=[float(v) for v in np.quantile(factor * raw,
+                                                                    probabilities)],
+                  L_quantiles=[float(v) for v in np.quantile(true, probabilities)])
+    _timings(result, name, dataset, n_timing)
+    return _written(result, name, model, write)
+
+
+def _timings(result, name, dataset, n_timing):
+    """Median seconds of one network solve and of the classical solves (in place)."""
+    from ..evaluation import device_info
+
     pots = [dataset.potential(i) for i in range(min(n_timing, len(dataset)))]
     result["neural_seconds"] = _median_seconds(
         lambda pot: neural_solve(name, pot, "exact V", TIMES), pots)
     result["classical_tols"] = CLASSICAL_TOLS
-    sensors = [pot.V(SENSORS) for pot in pots]
-    formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
-    for key, items, information in (("classical_seconds", pots, "exact V"),
-                                     ("classical_seconds_sensors", sensors, "sensors"),
-                                     ("classical_seconds_formula", formulas, "exact V")):
-        result[key] = [_median_seconds(
-            lambda pot: adaptive_solve(pot, information, TIMES, tol, "rk4"), items)
-            for tol in CLASSICAL_TOLS]
+    result.update(_classical_timings(dataset.checksum, tuple(pots)))
     result["device"] = device_info("cpu")
+
+
+def _written(result, name, model, write):
+    from .catalog import WEIGHTS
+
     if write:
         path = WEIGHTS / name / CALIBRATION
         write_atomic(path, (json.dumps(result, indent=2) + "\n").encode())

@@ -1,7 +1,8 @@
 """Measure :func:`~nh_operators.solve`'s tolerance contract and the time it saves.
 
-The contract: the true L_tot of ``solve(potential, t, tol=tol)`` is ≤ tol for at least
-99 % of inputs. :func:`contract_cases` draws inputs — test-set potentials (exact B-spline
+The contract, per call: the true L_tot of ``solve(potential, t, tol=tol)`` is ≤ tol
+(tested on unseen inputs in ``tests/solving/test_network_contract.py`` and
+``tests/solvers/test_evidence.py``). :func:`contract_cases` draws inputs — test-set potentials (exact B-spline
 curves, truth = the stored labels) and potentials from outside the training
 distribution (:mod:`nh_operators.potentials.ood` and the physical ones, truth = the reference
 solver) — each with its own random set of query times. :func:`measure_contract` runs

@@ -27,7 +27,7 @@ from ..solvers.states import check_states, state_arrays
 from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
                          _solve)
 from .catalog import network_domain
-from .estimate import raw_estimate, sensor_force
+from .estimate import estimate_at, sensor_force
 
 __all__ = ["CHUNK", "ManySolution", "solve_many"]
 
@@ -91,9 +91,8 @@ def _bar(total, progress):
 
 
 def _network_rows(name, V, src, t, rows, tol):
-    """Predict rows ``rows`` with shipped model ``name``; (q, p, estimate) of those rows."""
-    from scipy.interpolate import CubicSpline
-
+    """Predict rows ``rows`` with shipped model ``name``; (q, p, estimate) of those rows
+    at their asked times (the estimate there too: :func:`estimate_at`)."""
     from ..models import predict
 
     model = _model(name)
@@ -110,16 +109,9 @@ def _network_rows(name, V, src, t, rows, tol):
             return -src.forces_at(x, sub)
 
         force = (values, slopes)
-    raw = np.asarray(raw_estimate(q, p, *force), dtype=np.float64)
+    qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows])
     factor = model.calibration["factor"] if model.calibration else 1.0
     estimate = np.where(np.isfinite(raw), factor * raw, np.inf)
-    if t.ndim == 1 and np.array_equal(t, TIMES):
-        return q, p, estimate
-    qs, ps = CubicSpline(TIMES, q, axis=1), CubicSpline(TIMES, p, axis=1)
-    if t.ndim == 1:
-        return qs(t), ps(t), estimate
-    qa = np.stack([qs(t[i])[k] for k, i in enumerate(rows)]) if rows.size else q[:, :0]
-    pa = np.stack([ps(t[i])[k] for k, i in enumerate(rows)]) if rows.size else p[:, :0]
     return qa, pa, estimate
 
 

@@ -100,3 +100,45 @@ def test_acceptance_rate_interpolates_in_log_tolerance():
     assert acceptance_rate(cal, 1e-5) == pytest.approx(0.25)
     assert acceptance_rate(cal, 1e-4) == pytest.approx(0.5)
     assert acceptance_rate(cal, 1.0) == 1.0
+
+
+def test_estimate_at_the_grid_is_the_grid_estimate():
+    from nh_operators.solving import estimate_at
+
+    rng = np.random.default_rng(3)
+    q, p = SHO.exact(nh.TIMES)
+    q = q[None] + 1e-3 * rng.standard_normal((2, 100))
+    p = p[None] + 1e-3 * rng.standard_normal((2, 100))
+    qa, pa, raw = estimate_at(q, p, *sho_force(), nh.TIMES)
+    np.testing.assert_allclose(qa, q, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(raw, raw_estimate(q, p, *sho_force()), rtol=1e-12)
+    # per-row times: each row as if asked alone
+    at = rng.uniform(0, 2, (2, 5))
+    qa, pa, raw = estimate_at(q, p, *sho_force(), at)
+    for i in range(2):
+        qi, pi, ri = estimate_at(q[i:i + 1], p[i:i + 1], *sho_force(), at[i])
+        np.testing.assert_allclose(qa[i], qi[0], rtol=1e-14)
+        np.testing.assert_allclose(raw[i], ri[0], rtol=1e-12)
+    with pytest.raises(ValueError, match=r"asked times must lie in \[0, 2\]"):
+        estimate_at(q, p, *sho_force(), [2.5])
+
+
+def test_the_estimate_is_of_the_asked_times_not_of_the_grid():
+    """Issue 24, finding 3: the estimate was computed on TIMES and reused for any asked
+    times, and the true error there was up to 4.8x the estimate. A prediction that errs
+    only after t = 1.5 must be estimated worse at t = 1.8 than at t = 0.5."""
+    from nh_operators.solving import estimate_at
+
+    q, p = SHO.exact(nh.TIMES)
+    late = nh.TIMES > 1.5
+    q_bad = q.copy()
+    q_bad[late] += 0.01 * np.sin(20 * (nh.TIMES[late] - 1.5))
+    _, _, early_raw = estimate_at(q_bad[None], p[None], *sho_force(), [0.5])
+    _, _, late_raw = estimate_at(q_bad[None], p[None], *sho_force(), [1.8])
+    assert late_raw[0] > 1e4 * early_raw[0]
+    # the network path: a shipped network's estimate changes with the asked times
+    from nh_operators.solving import auto_solve
+
+    ests = [auto_solve.neural_solve("deeponet-alg1", SHO, "exact V", np.array([t]))[2]
+            for t in nh.TIMES[1::14]]
+    assert max(ests) > 3 * min(ests)

@@ -39,7 +39,14 @@ def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
 @pytest.mark.parametrize("name", available_pretrained())
 def test_shipped_model_is_calibrated_for_solve(name):
     cal = json.loads((WEIGHTS / name / "calibration.json").read_text())
-    assert cal["n"] >= 1000 and 0 < cal["factor"] < 100 and cal["quantile"] == 0.995
+    assert cal["quantile"] == 0.999 and cal["confidence"] == 0.95
+    fams = cal["families"]
+    # at least 2,000 samples of its own distribution, and every other family tried
+    assert fams["in distribution"]["admitted"] >= 1800
+    assert sum(f["admitted"] for f in fams.values()) >= 3000
+    assert set(fams) == {"in distribution", "sensors", "other distribution",
+                         "out of distribution"}
+    assert cal["factor"] == max(f["ratio_bound"] for f in fams.values() if f["admitted"])
     # calibrated on potentials from neither the training set nor the test set
     assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
     assert cal["estimate_quantiles"] == sorted(cal["estimate_quantiles"])
@@ -48,16 +55,24 @@ def test_shipped_model_is_calibrated_for_solve(name):
 
 def test_calibrate_pretrained_without_writing(tmp_path):
     from nh_operators.data import generate_dataset
-    from nh_operators.solving import calibrate_pretrained
+    from nh_operators.solving import calibrate_pretrained, upper_quantile
 
     path = WEIGHTS / "deeponet-alg1" / "calibration.json"
     before = path.read_bytes()
+    other = generate_dataset(20, seed=10, progress=False, normalization="batch",
+                             pool=100).potentials()
     cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
-                               n_timing=2, n_ood=12, write=False)
+                               other=other, n_timing=2, n_ood=12, write=False)
     assert path.read_bytes() == before and cal["n"] == 30
-    # the factor covers both the in-distribution and the out-of-distribution inputs
-    assert 0 < cal["n_ood"] <= 12
-    assert cal["factor"] == max(cal["factor_in_distribution"], cal["factor_ood"])
+    fams = cal["families"]
+    assert fams["in distribution"]["drawn"] == 30 and fams["sensors"]["drawn"] == 30
+    assert fams["other distribution"]["drawn"] == 20
+    assert 0 < fams["out of distribution"]["admitted"] <= 12
+    # the factor is the largest family's bound, each a bound on its 99.9 % quantile
+    assert cal["factor"] == max(f["ratio_bound"] for f in fams.values() if f["admitted"])
+    assert all(f["ratio_median"] <= f["ratio_bound"] <= f["ratio_max"]
+               for f in fams.values() if f["admitted"])
+    assert upper_quantile(np.arange(1.0, 1001.0), 0.5) == pytest.approx(500, rel=0.1)
     assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
 
 
