@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN = $(VENV)/bin
 
-.PHONY: demo test test-all docs bench study clean
+.PHONY: demo test test-slow test-all docs bench study clean
 
 $(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -16,6 +16,9 @@ demo: $(BIN)/.installed  ## classical solvers on the five physical potentials: t
 
 test: $(BIN)/.installed  ## the test suite CI runs (slow checks skipped)
 	$(BIN)/python -m pytest -q
+
+test-slow: $(BIN)/.installed  ## only the slow checks (CI's second step; about 10 minutes)
+	$(BIN)/python -m pytest -q --runslow -m slow
 
 test-all: $(BIN)/.installed  ## also the slow checks
 	$(BIN)/python -m pytest -q --runslow
