@@ -31,24 +31,11 @@ import numpy as np
 import nh_operators as nh
 from nh_operators.evaluation import device_info, loss_per_sample
 from nh_operators.potentials import ood_potentials
+from nh_operators.solvers import random_states
 from nh_operators.solvers.rows import row_source
 from nh_operators.training import write_atomic
 
 FINE = 4096  # substeps of the fixed-step truth
-
-
-def random_states(values_at, n, rng):
-    """(q0, p0) with q0 uniform where V < V0 and energy uniform in [V(q0), V0]."""
-    q0, p0 = np.empty(n), np.empty(n)
-    for i in range(n):
-        while True:
-            q = rng.uniform(0.0, 1.0)
-            v = float(values_at(np.array([q]), rows=np.array([i]))[0])
-            if v < nh.V0:
-                break
-        q0[i] = q
-        p0[i] = rng.choice([-1.0, 1.0]) * np.sqrt(2.0 * rng.uniform(0.0, nh.V0 - v))
-    return q0, p0
 
 
 def families(size, seed):

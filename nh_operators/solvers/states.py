@@ -10,7 +10,7 @@ import numpy as np
 
 from .._constants import V0
 
-__all__ = ["STATE_ATOL", "check_states", "state_arrays"]
+__all__ = ["STATE_ATOL", "check_states", "random_states", "state_arrays"]
 
 #: Energy above V0 that is still accepted (rounding of p0²/2 + V(q0)).
 STATE_ATOL = 1e-12
@@ -92,3 +92,35 @@ def check_states(q0s, p0s, value_at, batched=False):
                          f"p0²/2 + V(q0) = {energy[i]:.10g} > V0 = {V0:g}: the particle would "
                          f"cross the wall at {wall} and leave [0, 1], where V is defined")
     return energy
+
+
+def random_states(value_at, n, rng):
+    """Random bounded starting states, one per row: q0 uniform among the points of
+    [0, 1] where V < V0, the energy uniform in [V(q0), V0], the sign of p0 random.
+
+    Args:
+        value_at: ``value_at(x, rows=...)`` -> V of the rows ``rows`` at x, as a row
+            source's :meth:`~nh_operators.solvers.rows.RowSource.values_at`.
+        n: rows.
+        rng: a ``numpy.random.Generator``.
+
+    Returns:
+        (q0, p0), two (n,) arrays.
+
+    Example:
+        >>> from nh_operators.solvers.rows import row_source
+        >>> src = row_source("sho", "exact V")
+        >>> q0, p0 = random_states(lambda x, rows: src.values_at(x), 3, np.random.default_rng(0))
+        >>> bool(np.all(0.5 * p0**2 + 8 * (q0 - 0.5) ** 2 <= V0))
+        True
+    """
+    q0, p0 = np.empty(n), np.empty(n)
+    for i in range(n):
+        while True:
+            q = rng.uniform(0.0, 1.0)
+            v = float(value_at(np.array([q]), rows=np.array([i]))[0])
+            if v < V0:
+                break
+        q0[i] = q
+        p0[i] = rng.choice([-1.0, 1.0]) * np.sqrt(2.0 * rng.uniform(0.0, V0 - v))
+    return q0, p0

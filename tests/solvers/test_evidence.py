@@ -33,28 +33,17 @@ def test_the_audits_first_level_acceptances_now_meet_tol(index, column):
     assert true_loss(sol.q, sol.p, q_ref, p_ref) <= 1e-8
 
 
-def _states(values_at, n, rng):
-    q0, p0 = np.empty(n), np.empty(n)
-    for i in range(n):
-        while True:
-            q = rng.uniform(0.0, 1.0)
-            v = float(values_at(np.array([q]), rows=np.array([i]))[0])
-            if v < nh.V0:
-                break
-        q0[i], p0[i] = q, rng.choice([-1.0, 1.0]) * np.sqrt(2.0 * rng.uniform(0.0, nh.V0 - v))
-    return q0, p0
-
-
 def test_every_classical_answer_meets_tol_on_unseen_inputs():
     """Per call, on a seed no tuning used: B-splines and their sensor values, from rest
     and from random states, single times and random sets, tol 1e-3 to 1e-10."""
+    from nh_operators.solvers import random_states
     from nh_operators.solvers.rows import row_source
 
     rng = np.random.default_rng(4242)
     space = nh.BoundedPotentialSpace(seed=4242)
     pots = space.potentials(space.random(24))
     V = pots.V(nh.SENSORS)
-    q0, p0 = _states(row_source(pots, "exact V").values_at, 24, rng)
+    q0, p0 = random_states(row_source(pots, "exact V").values_at, 24, rng)
     zero = np.zeros(24)
     answers = 0
     for t in (rng.uniform(0, 2, 1), rng.uniform(0, 2, 1), rng.uniform(0, 2, 7)):
