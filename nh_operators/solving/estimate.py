@@ -124,9 +124,12 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
     """A prediction on the grid ``t`` at the asked times ``at``, and its E + D there.
 
     The prediction between grid times is the cubic spline through the grid values (what
-    :func:`~nh_operators.solve` returns), and the residuals of :func:`residuals` are
-    averaged over the asked times only, so the estimate is of L_tot where the user
-    looks, interpolation included.
+    :func:`~nh_operators.solve` returns). At each asked time t the residual of
+    :func:`residuals` (energy and Picard terms) is taken there and, as a floor, its
+    largest value on the grid up to t: an error made earlier is carried to t, so a
+    residual that happens to vanish at t (one asked time) does not hide it. The
+    estimate is the mean over the asked times, so it is of L_tot where the user looks,
+    interpolation included.
 
     Args:
         q, p: (N, K) predictions on the increasing grid ``t`` (t[0] = 0).
@@ -135,7 +138,8 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
         t: (K,) the grid (default :data:`TIMES`).
 
     Returns:
-        (q_at, p_at, raw): (N, M) each, and the (N,) uncalibrated E + D at ``at``.
+        (q_at, p_at, raw): (N, M) each, and the (N,) uncalibrated estimate at ``at``
+        (on the grid itself, at least :func:`raw_estimate`).
 
     Example:
         >>> w = 4.0  # the exact harmonic trajectory: E + D vanish at any times
@@ -167,9 +171,17 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
 
     q_at, p_at = apply(q, 0), apply(p, 0)
     int_p, int_f = apply(p, 1), apply(force, 1)
-    energy = 0.5 * np.mean((0.5 * p_at**2 + V_rows(q_at) - V0) ** 2, axis=1)
-    defect = 0.5 * np.mean((q_at - int_p) ** 2 + (p_at + int_f) ** 2, axis=1)
-    return q_at, p_at, energy + defect
+    here = 0.5 * ((0.5 * p_at**2 + V_rows(q_at) - V0) ** 2 + (q_at - int_p) ** 2
+                  + (p_at + int_f) ** 2)
+    # the residual on the grid up to each asked time: an error made earlier is carried
+    # to t even where the residual at t itself happens to vanish
+    integrate = _integration_matrix(t.tobytes()).T
+    grid = 0.5 * ((0.5 * p**2 + V_rows(q) - V0) ** 2 + (q - p @ integrate) ** 2
+                  + (p + force @ integrate) ** 2)
+    running = np.maximum.accumulate(grid, axis=1)
+    last = np.clip(np.searchsorted(t, rows, side="right") - 1, 0, t.size - 1)
+    behind = np.take_along_axis(running, last, axis=1)
+    return q_at, p_at, np.mean(np.maximum(here, behind), axis=1)
 
 
 def sensor_force(V):

@@ -111,7 +111,11 @@ def test_estimate_at_the_grid_is_the_grid_estimate():
     p = p[None] + 1e-3 * rng.standard_normal((2, 100))
     qa, pa, raw = estimate_at(q, p, *sho_force(), nh.TIMES)
     np.testing.assert_allclose(qa, q, rtol=0, atol=1e-14)
-    np.testing.assert_allclose(raw, raw_estimate(q, p, *sho_force()), rtol=1e-12)
+    # on the grid: the mean of the running maximum of the grid residual, which is at
+    # least the mean of the residual itself (raw_estimate)
+    energy, defect = residuals(q, p, *sho_force())
+    assert np.all(raw >= (energy + defect) * (1 - 1e-12))
+    assert np.all(raw <= 100 * (energy + defect))
     # per-row times: each row as if asked alone
     at = rng.uniform(0, 2, (2, 5))
     qa, pa, raw = estimate_at(q, p, *sho_force(), at)
