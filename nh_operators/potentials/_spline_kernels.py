@@ -1,22 +1,37 @@
 """Compiled (numba) piecewise-cubic potentials: clamped B-spline curves and cubics on a q-grid.
 
 Every force function has the signature ``force(params, x) -> -V'(x)`` with ``params``
-a 1-D float64 row; the solvers' kernels (:mod:`nh_operators.solvers._kernels`) take such
-a function as an argument, and numba compiles one specialisation per force.
+a 1-D float64 row; the solvers' kernels (:mod:`nh_operators.solvers._kernels`) run one
+specialisation per force (:func:`specialised`), cached on disk across processes.
+
+**Where the compiled code is kept.** numba writes a kernel's cache (``*.nbi`` index,
+``*.nbc`` data) to the first of: ``$NUMBA_CACHE_DIR`` if set; the ``__pycache__`` folder
+next to the source file if it is writable (a checkout, a user install); numba's folder
+in the user's cache directory (``~/.cache/numba`` on Linux, a subfolder per package
+path) when site-packages is read-only. If none is writable, nothing is cached and every
+process compiles again (5–15 s before its first answer).
 """
 
+import hashlib
 import math
+import os
+import types
 
 import numba
 
 from .bspline import Q_OFFSET, V_OFFSET
 
 _JIT = dict(nogil=True, cache=True)
-# Kernels that take another compiled function as an argument are not cached: numba keys
-# their cache entries by the dispatcher object of this process, so entries never match
-# again, the index grows with every process, and saving it eventually fails with
-# "ReferenceError: underlying object has vanished" (numba 0.6x). They compile in ~1 s.
-_JIT_FN_ARG = dict(nogil=True, cache=False)
+# A kernel that takes a compiled function as an argument cannot be cached: numba keys its
+# entries by the argument's dispatcher object, which is new in every process (entries
+# never match again, the index grows, saving it eventually fails). Such kernels (the
+# steppers, the period quadrature) are inlined instead into the *specialised* kernels of
+# :func:`specialised`, which call the function by a global name and are cached.
+_JIT_FN_ARG = dict(nogil=True, inline="always")
+
+#: The names a kernel template calls (``FORCE(par, x)``...); :func:`specialised` binds
+#: them to compiled functions.
+FN = FORCE = VALUE = None
 
 
 @numba.njit(**_JIT)
@@ -142,9 +157,89 @@ def grid_force(par, x):
 # ------------------------------------------------------------- vectorised evaluation
 
 
-@numba.njit(parallel=True, **_JIT_FN_ARG)
-def evaluate(fn, pars, xs, out):
-    """out[i, k] = fn(pars[i], xs[k]) for every potential i and point k."""
+def _evaluate(pars, xs, out):
     for i in numba.prange(pars.shape[0]):
         for k in range(xs.shape[0]):
-            out[i, k] = fn(pars[i], xs[k])
+            out[i, k] = FN(pars[i], xs[k])
+
+
+def evaluate(fn, pars, xs, out):
+    """out[i, k] = fn(pars[i], xs[k]) for every potential i and point k."""
+    specialised(_evaluate, {"FN": fn}, parallel=True)(pars, xs, out)
+
+
+# ------------------------------------------------------- kernels specialised per function
+
+_SPECIALISED = {}
+_SOURCES = []
+
+
+def _sources_hash():
+    """A hash of this wing's sources (the force functions and the constants they use)."""
+    if not _SOURCES:
+        digest = hashlib.sha1()
+        folder = os.path.dirname(os.path.abspath(__file__))
+        try:
+            for name in sorted(os.listdir(folder)):
+                if name.endswith(".py"):
+                    with open(os.path.join(folder, name), "rb") as f:
+                        digest.update(name.encode() + b"\0" + f.read())
+        except OSError:  # not a folder of files (a zip): the version stands in
+            from .._version import __version__
+
+            digest.update(__version__.encode())
+        _SOURCES.append(digest)
+    return _SOURCES[0].copy()
+
+
+def specialised(template, functions, **options):
+    """``template`` compiled with ``functions`` bound to its global names, cached on disk.
+
+    A kernel that took ``force`` as an argument would be compiled again in every process
+    (see ``_JIT_FN_ARG``); its template instead calls ``FORCE(par, x)`` (or ``VALUE``,
+    ``FN``, or the name of another template, bound to that template's copy), and each set
+    of functions gets a compiled copy of its own, named after the template, the functions
+    and a hash of their sources (so an edited force never reuses stale code: numba itself
+    only checks the template's own file). Copies are made once per process and loaded
+    from numba's cache after the first-ever compilation.
+
+    A kernel that takes a function is inlined into a plain (not ``parallel``) copy, which
+    the parallel copy then calls: inlined into a ``prange`` loop, it compiles twice as
+    slowly (the parallel passes then work through its whole body).
+
+    Args:
+        template: a plain Python function whose body calls the names in ``functions``.
+        functions: {global name: numba dispatcher}, e.g. ``{"FORCE": grid_force}``.
+        **options: extra ``numba.njit`` options (``parallel=True``).
+
+    Returns:
+        the compiled (``cache=True``) dispatcher.
+
+    Example:
+        >>> import numpy as np
+        >>> out = np.empty((1, 2))
+        >>> kernel = specialised(_evaluate, {"FN": grid_value}, parallel=True)
+        >>> kernel(np.arange(4.0)[None], np.array([0.0, 1.0]), out)
+        >>> out.tolist()
+        [[0.0, 6.0]]
+    """
+    key = (template, tuple(sorted(functions.items())), tuple(sorted(options.items())))
+    kernel = _SPECIALISED.get(key)
+    if kernel is None:
+        digest = _sources_hash()
+        digest.update(f"{template.__module__}.{template.__qualname__}".encode())
+        names = []  # of the functions bound here or in the copies bound here
+        for name, fn in key[1]:
+            py = fn.py_func
+            digest.update(f"|{name}={py.__module__}.{py.__qualname__}".encode())
+            names += [n for n in getattr(fn, "_bound", [py.__qualname__]) if n not in names]
+        copy = types.FunctionType(template.__code__, {**template.__globals__, **functions},
+                                  template.__name__, template.__defaults__,
+                                  template.__closure__)
+        copy.__qualname__ = ".".join([template.__qualname__, *names, digest.hexdigest()[:12]])
+        copy.__module__ = template.__module__
+        copy.__doc__ = template.__doc__
+        kernel = numba.njit(**_JIT, **options)(copy)
+        kernel._bound = names
+        _SPECIALISED[key] = kernel
+    return kernel

@@ -14,6 +14,7 @@ float literal (``inf`` and ``nan`` become ``math.inf`` and ``math.nan``). The tr
 built by the whitelist parser, which keeps no names, attributes or strings from the text.
 """
 
+import hashlib
 import math
 
 import numba
@@ -79,10 +80,19 @@ def _compile(value_source, force_source):
 def _build(value_source, force_source):
     source = (f"def value(par, q):\n    return {value_source}\n\n"
               f"def force(par, q):\n    return -{force_source}\n")
-    namespace = {"math": math, "_sign": _sign}
+    namespace = {"math": math, "_sign": _sign, "__name__": __name__}
     exec(compile(source, "<nh_operators compiled formula>", "exec"), namespace)  # noqa: S102
+    # source generated at run time has no file for numba to cache it by: the kernels that
+    # call a formula are cached instead (``_spline_kernels.specialised``), under names
+    # that carry a hash of the formula's source
+    tag = hashlib.sha1(source.encode()).hexdigest()[:16]
     jit = numba.njit(nogil=True, cache=False, error_model="numpy")
-    return jit(namespace["value"]), jit(namespace["force"])
+    functions = []
+    for name in ("value", "force"):
+        fn = namespace[name]
+        fn.__qualname__ = f"formula_{tag}_{name}"
+        functions.append(jit(fn))
+    return tuple(functions)
 
 
 def compile_expression(expr):
@@ -174,10 +184,11 @@ def _smff_force(par, q):
 def compiled_functions(potential, *, after=0):
     """Compiled (value, force) of a typed formula or a physical potential, else None.
 
-    Compiling a formula, with the solver kernels specialised to it, takes about 1–3 s
-    once per process; a solve in Python takes 6–40 ms. So the solvers ask with
-    ``after=1``: a formula is compiled on its second solve, and a one-off solve (the
-    command line) stays in Python.
+    Compiling a formula, with the solver kernels specialised to it, takes 5–10 s the
+    first time a formula is met on a machine (numba then caches the kernels on disk, and
+    a later process loads them in about 0.1 s); a solve in Python takes 6–40 ms (near
+    times). So the solvers ask with ``after=1``: a formula is compiled on its second
+    solve in a process, and a one-off solve (the command line) stays in Python.
 
     Args:
         potential: what :func:`~nh_operators.potentials.as_potential` returns.

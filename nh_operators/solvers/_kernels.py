@@ -1,10 +1,13 @@
 """Compiled (numba) solvers: fixed-step and adaptive trajectories, the sensors' spline.
 
 The trajectory kernels take a force function ``force(params, x) -> -V'(x)`` (see
-:mod:`nh_operators.potentials._spline_kernels`) as an argument; numba compiles one
-specialisation per force. The same Python source also runs uncompiled
-(``_trajectory_fixed.py_func``) with a plain Python force, which is how arbitrary
-user callables are integrated without a second copy of the steppers.
+:mod:`nh_operators.potentials._spline_kernels`) as an argument. They are inlined into
+one-row kernels that call the force by the global name ``FORCE``, which the parallel batch
+kernels call in turn: all compiled once per force
+(:func:`~nh_operators.potentials._spline_kernels.specialised`) and cached on disk.
+The same Python source also runs uncompiled (``_trajectory_fixed.py_func``) with a plain
+Python force, which is how arbitrary user callables are integrated without a second copy
+of the steppers.
 """
 
 import math
@@ -12,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT, _JIT_FN_ARG, _cubic, _dcubic
+from ..potentials._spline_kernels import FORCE, _JIT, _JIT_FN_ARG, _cubic, _dcubic, specialised
 from ..potentials.bspline import Q_OFFSET, V_OFFSET
 
 # -------------------------------------------------------------- fixed-step solvers
@@ -149,31 +152,54 @@ def _lanes_fixed(force, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s
             k += 1
 
 
-@numba.njit(parallel=True, **_JIT_FN_ARG)
-def _shared_grid(force, pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
+# Templates, compiled per force by :func:`_for_force`: one row (or LANES rows) with the
+# stepper inlined, then the parallel loops over rows, which call those copies by name.
+
+
+def _trajectory_row(par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
+    _trajectory_fixed(FORCE, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start)
+
+
+def _lanes_row(pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
+    _lanes_fixed(FORCE, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
+
+
+def _shared_grid(pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
     """Rows ``rows`` on one time grid: LANES at a time, the remainder one by one."""
     blocks = rows.shape[0] // LANES
     for b in numba.prange(blocks):
-        _lanes_fixed(force, pars, rows, b * LANES, tq, h, nsteps, rk4, weights, oq, op,
-                     q0s, p0s)
+        _lanes_row(pars, rows, b * LANES, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
     for k in numba.prange(blocks * LANES, rows.shape[0]):
         i = rows[k]
-        _trajectory_fixed(force, pars[i], tq, h, nsteps, rk4, weights, oq[k], op[k],
-                          q0s[i], p0s[i])
+        _trajectory_row(pars[i], tq, h, nsteps, rk4, weights, oq[k], op[k], q0s[i], p0s[i])
+
+
+def _own_grids(pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
+    """Rows ``rows``, each on its own grid."""
+    for k in numba.prange(rows.shape[0]):
+        i = rows[k]
+        _trajectory_row(pars[i], tq[i], hs[i], nsteps[i], rk4, weights, oq[k], op[k], q0s[i],
+                        p0s[i])
+
+
+_FOR_FORCE = {}
+
+
+def _for_force(template, force):
+    """The compiled ``template`` (:func:`_shared_grid`, :func:`_own_grids`) of ``force``."""
+    kernel = _FOR_FORCE.get((template, force))
+    if kernel is None:
+        rows = {"_trajectory_row": specialised(_trajectory_row, {"FORCE": force})}
+        if template is _shared_grid:
+            rows["_lanes_row"] = specialised(_lanes_row, {"FORCE": force})
+        kernel = _FOR_FORCE[template, force] = specialised(template, rows, parallel=True)
+    return kernel
 
 
 def batch_fixed(force, pars, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
     """Every row of ``pars`` on the shared sorted times ``tq`` and step grid."""
     rows = np.arange(pars.shape[0])
-    _shared_grid(force, pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
-
-
-@numba.njit(parallel=True, **_JIT_FN_ARG)
-def _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
-    for k in numba.prange(rows.shape[0]):
-        i = rows[k]
-        _trajectory_fixed(force, pars[i], tq[i], hs[i], nsteps[i], rk4, weights, oq[k],
-                          op[k], q0s[i], p0s[i])
+    _for_force(_shared_grid, force)(pars, rows, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
 
 
 def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s):
@@ -183,16 +209,18 @@ def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s
     ``tq`` (M,) with scalar ``hs`` and ``nsteps``: one grid shared by every row, taken
     as it is; per-row ``tq`` (N, M), ``hs``, ``nsteps`` are compared first."""
     if tq.ndim == 1:
-        _shared_grid(force, pars, rows, np.ascontiguousarray(tq), hs, nsteps, rk4, weights,
-                     oq, op, q0s, p0s)
+        _for_force(_shared_grid, force)(pars, rows, np.ascontiguousarray(tq), hs, nsteps,
+                                        rk4, weights, oq, op, q0s, p0s)
         return
     first = rows[0] if rows.size else 0
     if rows.size and np.all(hs[rows] == hs[first]) and np.all(nsteps[rows] == nsteps[first]) \
             and np.all(tq[rows] == tq[first]):
-        _shared_grid(force, pars, rows, np.ascontiguousarray(tq[first]), hs[first],
-                     nsteps[first], rk4, weights, oq, op, q0s, p0s)
+        _for_force(_shared_grid, force)(pars, rows, np.ascontiguousarray(tq[first]),
+                                        hs[first], nsteps[first], rk4, weights, oq, op, q0s,
+                                        p0s)
     else:
-        _own_grids(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s)
+        _for_force(_own_grids, force)(pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s,
+                                      p0s)
 
 
 @numba.njit(parallel=True, **_JIT)

@@ -26,7 +26,7 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT, _JIT_FN_ARG
+from ..potentials._spline_kernels import FN, FORCE, VALUE, _JIT, _JIT_FN_ARG, specialised
 
 #: Status codes of :func:`orbit_period`.
 OK, STATIONARY, NOT_CONVERGED, BARRIER = 0, 1, 2, 3
@@ -64,6 +64,9 @@ def _at_rest(out, q0):
     out[4] = 0.0
     out[6] = q0
     return STATIONARY
+
+
+_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
 def orbit_period(value, force, par, q0, p0, rate, out):
@@ -110,6 +113,8 @@ def orbit_period(value, force, par, q0, p0, rate, out):
             continue
         x = x_in
         v = value(par, x_in)
+        x_back = x_in - direction * _MARCH  # the sample behind: a top between samples
+        v_back = value(par, x_back) if -_OUTSIDE < x_back < 1.0 + _OUTSIDE else math.inf
         wall = False
         while True:
             # past a wall only when E exceeds V there (by rounding): the true turning
@@ -122,10 +127,33 @@ def orbit_period(value, force, par, q0, p0, rate, out):
                 smax_f = max(smax_f, ((vn - v) / (xn - x)) ** 2)
             if not (energy - vn > 0.0):
                 break
+            if v >= v_back and v >= vn and xn != x:
+                # V peaks between x_back and xn, where the samples stay below E: find the
+                # top (golden section) in case it reaches E between them
+                # (inline: this source also runs uncompiled, with Python callables)
+                ga, gb = min(x_back, xn), max(x_back, xn)
+                gc, gd = gb - _GOLDEN * (gb - ga), ga + _GOLDEN * (gb - ga)
+                vc, vd = value(par, gc), value(par, gd)
+                while gb - ga > 1e-13:  # V is flat at a top: its value right to ~1e-26
+                    if vc >= vd:
+                        gb, gd, vd = gd, gc, vc
+                        gc = gb - _GOLDEN * (gb - ga)
+                        vc = value(par, gc)
+                    else:
+                        ga, gc, vc = gc, gd, vd
+                        gd = ga + _GOLDEN * (gb - ga)
+                        vd = value(par, gd)
+                top, v_top = (gc, vc) if vc >= vd else (gd, vd)
+                if not (energy - v_top > 0.0):
+                    if direction * (top - x) < 0.0:  # the top lies behind x
+                        x, v = x_back, v_back
+                    xn, vn = top, v_top
+                    break
             smax_p = max(smax_p, 2.0 * (energy - vn))
             if xn <= -_OUTSIDE or xn >= 1.0 + _OUTSIDE:
                 wall = True
                 break
+            x_back, v_back = x, v
             x = xn
             v = vn
         if wall:
@@ -295,31 +323,50 @@ def orbit_period(value, force, par, q0, p0, rate, out):
 _orbit_period_jit = numba.njit(**_JIT_FN_ARG)(orbit_period)
 
 
-@numba.njit(parallel=True, **_JIT_FN_ARG)
-def batch_orbit_period(value, force, pars, rows, q0s, p0s, rates, out, status):
-    """orbit_period of rows ``rows`` (indices into pars, q0s, p0s) with drift rates
-    ``rates`` (one per row of ``rows``); out (len(rows), 7)."""
+# Templates compiled once per (value, force) or fn and cached on disk (specialised: the
+# period inlined into one row, called by name from the parallel loop); the functions of
+# the same names below take the compiled functions as arguments.
+
+
+def _orbit_row(par, q0, p0, rate, out):
+    return _orbit_period_jit(VALUE, FORCE, par, q0, p0, rate, out)
+
+
+def _batch_orbit_period(pars, rows, q0s, p0s, rates, out, status):
     for k in numba.prange(rows.shape[0]):
         i = rows[k]
-        status[k] = _orbit_period_jit(value, force, pars[i], q0s[i], p0s[i], rates[k],
-                                      out[k])
+        status[k] = _orbit_row(pars[i], q0s[i], p0s[i], rates[k], out[k])
 
 
-@numba.njit(parallel=True, **_JIT_FN_ARG)
-def pairwise(fn, pars, xs, out):
-    """out[i] = fn(pars[i], xs[i])."""
+def _pairwise(pars, xs, out):
     for i in numba.prange(xs.shape[0]):
-        out[i] = fn(pars[i], xs[i])
+        out[i] = FN(pars[i], xs[i])
 
 
-@numba.njit(**_JIT_FN_ARG)
-def rowwise(fn, pars, xs, out):
-    """out[i, j] = fn(pars[i], xs[i, j]); one row of ``pars`` serves every row.
-
-    One call for a whole (N, M) array: a call that passes a function costs numba
-    about 10 µs to dispatch, more than the M evaluations of a short row."""
+def _rowwise(pars, xs, out):
     last = pars.shape[0] - 1
     for i in range(xs.shape[0]):
         par = pars[min(i, last)]
         for j in range(xs.shape[1]):
-            out[i, j] = fn(par, xs[i, j])
+            out[i, j] = FN(par, xs[i, j])
+
+
+def batch_orbit_period(value, force, pars, rows, q0s, p0s, rates, out, status):
+    """orbit_period of rows ``rows`` (indices into pars, q0s, p0s) with drift rates
+    ``rates`` (one per row of ``rows``); out (len(rows), 7)."""
+    row = specialised(_orbit_row, {"VALUE": value, "FORCE": force})
+    specialised(_batch_orbit_period, {"_orbit_row": row}, parallel=True)(
+        pars, rows, q0s, p0s, rates, out, status)
+
+
+def pairwise(fn, pars, xs, out):
+    """out[i] = fn(pars[i], xs[i])."""
+    specialised(_pairwise, {"FN": fn}, parallel=True)(pars, xs, out)
+
+
+def rowwise(fn, pars, xs, out):
+    """out[i, j] = fn(pars[i], xs[i, j]); one row of ``pars`` serves every row.
+
+    One call for a whole (N, M) array: a compiled call costs a few µs to dispatch,
+    more than the M evaluations of a short row."""
+    specialised(_rowwise, {"FN": fn})(pars, xs, out)
