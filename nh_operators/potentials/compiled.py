@@ -184,7 +184,7 @@ def _smff_force(par, q):
 def compiled_functions(potential, *, after=0):
     """Compiled (value, force) of a typed formula or a physical potential, else None.
 
-    Compiling a formula, with the solver kernels specialised to it, takes 5–10 s the
+    Compiling a formula, with the solver kernels specialised to it, takes 5–20 s the
     first time a formula is met on a machine (numba then caches the kernels on disk, and
     a later process loads them in about 0.1 s); a solve in Python takes 6–40 ms (near
     times). So the solvers ask with ``after=1``: a formula is compiled on its second
