@@ -24,7 +24,7 @@ from .schemes import MAX_STEPS, ORDERS, _method
 __all__ = ["RESOLVED_STEP", "RowSource", "row_source", "solve_rows"]
 
 #: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
-#: (:mod:`.classical_solve`). At the largest speed of a generator potential (|p| ≈ 2.8)
+#: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
 #: it moves the particle 0.007 per step, less than the sensor spacing 1/99, so no level
 #: used as evidence steps over the features of V.
 RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
