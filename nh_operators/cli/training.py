@@ -14,7 +14,7 @@ from ._options import (
 
 #: The networks' names (the models wing's MODELS, repeated here so that parsing and
 #: ``--help`` do not import torch; tests/cli checks that they agree).
-MODEL_NAMES = ("deeponet", "fno", "mambonet", "traonet", "varonet")
+MODEL_NAMES = ("deeponet", "fno", "mambonet", "phaseonet", "traonet", "varonet")
 
 
 def _arch_overrides(items):
@@ -42,7 +42,8 @@ def _train(args):
     config = TrainConfig(**tuned, epochs=args.epochs, seed=args.seed,
                          batch_size=args.batch_size, scheduler=args.scheduler,
                          dtype=args.dtype, device=args.device, amp=args.amp,
-                         loss=args.loss, ema=args.ema)
+                         loss=args.loss, ema=args.ema, variant=args.variant,
+                         recipe=args.recipe, scheduler_step=args.scheduler_step)
     net, history = train(config, args.data, args.out, resume=args.resume,
                          progress=not args.quiet, max_minutes=args.max_minutes,
                          stop_after=args.stop_after, max_rows=args.max_rows)
@@ -98,6 +99,16 @@ def register(sub):
     """Add this module's commands to the subparsers ``sub``."""
     tr = sub.add_parser("train", help="train a network in DeepXDE's loop")
     tr.add_argument("--model", choices=MODEL_NAMES, help="the network (or from --config)")
+    tr.add_argument("--variant", choices=["ours", "reference"], default="ours",
+                    help="ours (default) or reference: the authors' networks as their "
+                    "code builds them (not fno, phaseonet)")
+    tr.add_argument("--recipe", choices=["ours", "reference"], default="ours",
+                    help="training values left unset: ours (default; the paper's TPE "
+                    "optimum, AdamW betas 0.85/0.98) or reference (the authors' code: "
+                    "their lr and infimum, betas 0.9/0.999, the schedule per epoch)")
+    tr.add_argument("--scheduler-step", choices=["iteration", "epoch"],
+                    help="move the lr every iteration or once per epoch (default: the "
+                    "recipe's)")
     tr.add_argument("--config", metavar="FILE.json", help="tuned values (nh-operators "
                     "tune --out): arch, lr, upper bound, infimum, beta; flags win")
     tr.add_argument("--preset", choices=["paper", "cpu"],

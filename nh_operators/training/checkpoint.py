@@ -86,7 +86,8 @@ def load_model(run_dir, device="cpu"):
     state = load_checkpoint(run_dir)
     config = state["config"]
     with torch.random.fork_rng(devices=[]):
-        net = build_model(config["model"], config["preset"], **config["arch"])
+        net = build_model(config["model"], config["preset"], config.get("variant", "ours"),
+                          **config["arch"])
     net = cast_network(net, getattr(torch, config["dtype"]))
     net.load_state_dict(state["model"])
     return net.to(device).eval(), config

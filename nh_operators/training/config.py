@@ -26,15 +26,25 @@ class TrainConfig:
     Args:
         model: a key of :data:`nh_operators.MODELS`.
         preset: architecture preset, "paper" or "cpu".
+        variant: "ours" (default) or "reference", the authors' networks
+            (:data:`~nh_operators.models.VARIANTS`; not for FNO or PhaseONet).
+        recipe: "ours" (default: the paper's TPE values, AdamW betas (0.85, 0.98), the
+            schedule moved every iteration) or "reference" (as the authors' code ran it:
+            their lr and infimum, betas (0.9, 0.999), the schedule moved once per
+            epoch; :data:`~nh_operators.models.RECIPES`). It fills every value left
+            ``None`` below; a value given wins.
         arch: constructor arguments replacing the preset's.
         epochs: number of epochs (also the schedule's ``max_iter``).
         seed: seed of the weights, the batch order and the VaRONet noise.
         batch_size: potentials per iteration (paper: 100).
         lr, upper_bound, infimum_lr, beta: schedule and KL weight; ``None`` takes the
-            paper's tuned value for the model (see ``training_defaults``).
+            recipe's value for the model (see ``training_defaults``).
         scheduler: "exphyperbolic" (paper), "hyperbolic" or "constant".
         weight_decay: AdamW weight decay (default 0.01, PyTorch's).
-        betas: AdamW betas (paper: (0.85, 0.98)).
+        betas: AdamW betas (``None``: the recipe's; paper: (0.85, 0.98)).
+        scheduler_step: "iteration" (the rate moves every iteration along the
+            epoch-measured curve) or "epoch" (it holds within an epoch); ``None``: the
+            recipe's.
         dtype: "float32" (default) or "float64".
         device: "auto" (CUDA when available), "cpu", "cuda", "cuda:1", ...
         amp: float16 autocast through DeepXDE's mixed mode; CUDA only.
@@ -49,6 +59,8 @@ class TrainConfig:
 
     model: str
     preset: str = "cpu"
+    variant: str = "ours"
+    recipe: str = "ours"
     arch: dict = dataclasses.field(default_factory=dict)
     epochs: int = 10
     seed: int = 0
@@ -59,7 +71,8 @@ class TrainConfig:
     beta: float = None
     scheduler: str = "exphyperbolic"
     weight_decay: float = 0.01
-    betas: tuple = (0.85, 0.98)
+    betas: tuple = None
+    scheduler_step: str = None
     dtype: str = "float32"
     device: str = "auto"
     amp: bool = False
@@ -74,14 +87,17 @@ class TrainConfig:
             ValueError: naming the first bad value.
         """
         cfg = dataclasses.asdict(self)
-        cfg["arch"] = model_config(self.model, self.preset, **self.arch)
-        defaults = training_defaults(self.model)
-        for key in ("lr", "upper_bound", "infimum_lr"):
+        cfg["arch"] = model_config(self.model, self.preset, self.variant, **self.arch)
+        defaults = training_defaults(self.model, self.recipe)
+        for key in ("lr", "upper_bound", "infimum_lr", "betas", "scheduler_step"):
             if cfg[key] is None:
                 cfg[key] = defaults[key]
         if cfg["beta"] is None:
             cfg["beta"] = defaults.get("beta", 0.0)
         cfg["betas"] = list(cfg["betas"])
+        if cfg["scheduler_step"] not in ("iteration", "epoch"):
+            raise ValueError(f"scheduler_step must be 'iteration' or 'epoch', got "
+                             f"{cfg['scheduler_step']!r}")
         if int(cfg["epochs"]) != cfg["epochs"] or cfg["epochs"] < 1:
             raise ValueError(f"epochs must be a positive integer, got {cfg['epochs']}")
         if int(cfg["batch_size"]) != cfg["batch_size"] or cfg["batch_size"] < 1:

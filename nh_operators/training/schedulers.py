@@ -18,6 +18,8 @@ the scheduler is stepped once per epoch, as in the paper. DeepXDE's training loo
 steps a scheduler once per *iteration*; pass ``steps_per_epoch`` (iterations per
 epoch) and x = iteration / steps_per_epoch becomes a fractional epoch, so the curve is
 the same one, sampled finer. The trainer in :mod:`nh_operators.training.trainer` does this.
+Add ``per_epoch=True`` to step per iteration but move the rate only at epoch ends
+(x = whole epochs done): the reference code's per-epoch schedule inside DeepXDE's loop.
 """
 
 import math
@@ -31,7 +33,7 @@ class _Hyperbolic(LRScheduler):
     """Shared validation and the hyperbola h(x); subclasses give the rate."""
 
     def __init__(self, optimizer, upper_bound, max_iter, infimum_lr, *,
-                 steps_per_epoch=1, last_epoch=-1):
+                 steps_per_epoch=1, per_epoch=False, last_epoch=-1):
         if not max_iter > 0:
             raise ValueError(f"max_iter must be positive, got {max_iter}")
         if upper_bound < max_iter:
@@ -51,6 +53,7 @@ class _Hyperbolic(LRScheduler):
         self.max_iter = float(max_iter)
         self.infimum_lr = float(infimum_lr)
         self.steps_per_epoch = int(steps_per_epoch)
+        self.per_epoch = bool(per_epoch)
         super().__init__(optimizer, last_epoch)
 
     def _h(self, x):
@@ -59,7 +62,11 @@ class _Hyperbolic(LRScheduler):
         return math.sqrt(max((n - x) / u * (2.0 - (n + x) / u), 0.0))
 
     def epoch_position(self):
-        """Fractional epoch x of the current step."""
+        """Fractional epoch x of the current step; with ``per_epoch`` the whole epochs
+        done, so that the lr holds within an epoch and moves at its end (a scheduler
+        stepped once per epoch, as the paper's reference code ran it)."""
+        if self.per_epoch:
+            return float(self.last_epoch // self.steps_per_epoch)
         return self.last_epoch / self.steps_per_epoch
 
     def get_lr(self):
@@ -77,6 +84,8 @@ class HyperbolicLR(_Hyperbolic):
         infimum_lr: η_inf, below η₀; reached at x = N only when U = N.
         steps_per_epoch: scheduler steps per epoch (1: step per epoch; iterations per
             epoch: step per iteration with fractional epochs).
+        per_epoch: with ``steps_per_epoch`` > 1, hold the rate within an epoch (x =
+            whole epochs done) instead of moving it every iteration.
 
     Raises:
         ValueError: if U < N, η_inf ≥ η₀, or a count is not positive.

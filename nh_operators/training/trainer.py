@@ -110,7 +110,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
     dtype = getattr(torch, cfg["dtype"])
     with torch.random.fork_rng(devices=[device] if device.type == "cuda" else []):
         torch.manual_seed(cfg["seed"])
-        net = build_model(cfg["model"], cfg["preset"], **cfg["arch"])
+        net = build_model(cfg["model"], cfg["preset"], cfg["variant"], **cfg["arch"])
         net = cast_network(net, dtype).to(device)
         data_obj = ShardedOperatorData(
             rows, cfg["train_fraction"], batch_size=cfg["batch_size"], rank=dist.rank,
@@ -128,7 +128,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
         sched_cls = SCHEDULERS[cfg["scheduler"]]
         scheduler = None if sched_cls is None else sched_cls(
             opt, cfg["upper_bound"], cfg["epochs"], cfg["infimum_lr"],
-            steps_per_epoch=steps)
+            steps_per_epoch=steps, per_epoch=cfg["scheduler_step"] == "epoch")
         model.lr_scheduler = scheduler
         run = _Run(cfg, out, net, data_obj, model, scheduler, dist, checksum,
                    progress, epoch_callback)
@@ -223,7 +223,8 @@ def _prepare(out, resume, cfg, checksum, dist):
 
 
 #: Config keys added after the first checkpoints were written, with their defaults.
-_ADDED = {"loss": "mse", "ema": 0.0}
+_ADDED = {"loss": "mse", "ema": 0.0, "variant": "ours", "recipe": "ours",
+          "scheduler_step": "iteration"}
 
 
 def _check_resumable(state, cfg, checksum):

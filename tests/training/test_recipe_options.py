@@ -96,3 +96,35 @@ def test_recipe_option_errors_are_named():
         cfg(loss="l1").resolved()
     with pytest.raises(ValueError, match="ema must be"):
         cfg(ema=1.5).resolved()
+
+
+def test_reference_recipe_trains_the_reference_variant_and_reloads_it(small, tmp_path):
+    arch = dict(d_model=16, nhead=2, num_layers=1, dim_feedforward=32)
+    config = nh.TrainConfig("traonet", preset="cpu", arch=arch, epochs=2, seed=2,
+                            batch_size=20, variant="reference", recipe="reference")
+    resolved = config.resolved()
+    assert resolved["betas"] == [0.9, 0.999] and resolved["scheduler_step"] == "epoch"
+    assert (resolved["lr"], resolved["infimum_lr"]) == (1.4645e-3, 3.0497e-7)
+    net, history = nh.train(config, small, tmp_path, progress=False)
+    assert type(net).__name__ == "ReferenceTraONet"
+    # stepped per epoch: the lr logged at the end of epoch 1 is the curve's at x = 1
+    h = lambda x: math.sqrt((2 - x) / 300 * (2 - (2 + x) / 300))  # noqa: E731
+    expected = 1.4645e-3 * (1.4645e-3 / 3.0497e-7) ** (h(1) - h(0))
+    assert history[0]["lr"] == pytest.approx(expected, rel=1e-9)
+    loaded, saved = load_model(tmp_path)
+    assert saved["variant"] == "reference" and saved["recipe"] == "reference"
+    x = (torch.rand(2, 100), torch.linspace(0, 2, 5)[:, None])
+    net.eval()
+    assert torch.equal(loaded(x), net(x))
+
+
+def test_a_given_value_wins_over_the_recipe_and_bad_names_are_named():
+    config = nh.TrainConfig("traonet", recipe="reference", betas=(0.8, 0.9),
+                            scheduler_step="iteration").resolved()
+    assert config["betas"] == [0.8, 0.9] and config["scheduler_step"] == "iteration"
+    with pytest.raises(ValueError, match="unknown recipe 'paper'"):
+        nh.TrainConfig("traonet", recipe="paper").resolved()
+    with pytest.raises(ValueError, match="unknown model 'fno' for variant 'reference'"):
+        nh.TrainConfig("fno", variant="reference").resolved()
+    with pytest.raises(ValueError, match="scheduler_step must be"):
+        nh.TrainConfig("fno", scheduler_step="batch").resolved()

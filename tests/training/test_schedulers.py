@@ -52,6 +52,23 @@ def test_per_iteration_follows_fractional_epochs(cls):
 
 
 @pytest.mark.parametrize("cls", [HyperbolicLR, ExpHyperbolicLR])
+def test_per_epoch_stepping_in_an_iteration_loop_holds_the_rate_within_an_epoch(cls):
+    opt = _opt()
+    sched = cls(opt, upper_bound=10, max_iter=5, infimum_lr=1e-4, steps_per_epoch=4,
+                per_epoch=True)
+    seen = []
+    for _ in range(20):
+        seen.append(_lr(opt))
+        opt.step()
+        sched.step()
+    assert seen[:4] == [1e-2] * 4
+    assert seen[4:8] == [pytest.approx(HAND[cls][1], rel=1e-9)] * 4
+    assert _lr(opt) == pytest.approx(HAND[cls][5], rel=1e-9)
+    # at 2.5 epochs (iteration 10) it still holds epoch 2's value, not h(2.5)'s
+    assert seen[10] == seen[8] != pytest.approx(HAND[cls][2.5], rel=1e-3)
+
+
+@pytest.mark.parametrize("cls", [HyperbolicLR, ExpHyperbolicLR])
 def test_reaches_infimum_when_upper_bound_equals_epochs_and_then_holds(cls):
     opt = _opt()
     sched = cls(opt, upper_bound=7, max_iter=7, infimum_lr=1e-5)
