@@ -12,6 +12,7 @@ TINY = {
     "mambonet": dict(d_model=16, num_mamba_layers=1, nhead=2, num_decoder_layers=1,
                      dim_feedforward=32),
     "fno": dict(n_modes=8, hidden_channels=8, n_layers=2),
+    "phaseonet": dict(width=16, depth=1, basis=4, grid=16),
 }
 
 

@@ -7,12 +7,14 @@ import torch
 from .deeponet import DeepONet
 from .fno import FNO
 from .mambonet import MambONet
-from .presets import ARCHITECTURES, PRESETS, REFERENCE_ARCHITECTURES, TRAINING
+from .phaseonet import PhaseONet
+from .presets import (ARCHITECTURES, PRESETS, REFERENCE_ARCHITECTURES,
+                      REFERENCE_TRAINING, TRAINING)
 from .reference import REFERENCE_MODELS
 from .traonet import TraONet
 from .varonet import VaRONet
 
-__all__ = ["MODELS", "PRESETS", "VARIANTS", "build_model", "cast_network", "model_config",
+__all__ = ["MODELS", "PRESETS", "RECIPES", "VARIANTS", "build_model", "cast_network", "model_config",
            "training_defaults", "count_parameters"]
 
 #: name → network class.
@@ -22,6 +24,7 @@ MODELS = {
     "varonet": VaRONet,
     "mambonet": MambONet,
     "fno": FNO,
+    "phaseonet": PhaseONet,
 }
 
 
@@ -90,11 +93,32 @@ def build_model(name, preset="paper", variant="ours", **overrides):
     return VARIANTS[variant][0][name](**config)
 
 
-def training_defaults(name):
-    """The paper's training values for ``name``: lr, upper_bound, infimum_lr (and
-    beta for VaRONet)."""
+#: Recipes: "ours" (the paper's TPE optimum, AdamW betas (0.85, 0.98), the schedule
+#: moved every iteration) and "reference" (as the authors' code ran it).
+RECIPES = {
+    "ours": dict(values=TRAINING, betas=(0.85, 0.98), scheduler_step="iteration"),
+    "reference": dict(values=REFERENCE_TRAINING, betas=(0.9, 0.999),
+                      scheduler_step="epoch"),
+}
+
+
+def training_defaults(name, recipe="ours"):
+    """The training values of ``name`` in ``recipe``: lr, upper_bound, infimum_lr (and
+    beta for VaRONet), betas and scheduler_step.
+
+    Raises:
+        ValueError: for an unknown model or recipe.
+
+    Example:
+        >>> training_defaults("traonet", "reference")["infimum_lr"]
+        3.0497e-07
+    """
     _check(name, "paper")
-    return dict(TRAINING[name])
+    if recipe not in RECIPES:
+        raise ValueError(f"unknown recipe {recipe!r}; choose from {sorted(RECIPES)}")
+    spec = RECIPES[recipe]
+    values = spec["values"].get(name, TRAINING[name])
+    return {**values, "betas": spec["betas"], "scheduler_step": spec["scheduler_step"]}
 
 
 def count_parameters(net):
