@@ -73,7 +73,8 @@ class PhaseONet(OperatorNet):
     t · δT / T).
 
     Args:
-        width: hidden width of the branch MLP (default 256).
+        width: hidden width of the branch MLP (default 128: at 1 thread and batch
+            1,000 the MLP then costs about as much as the period and the read-out).
         depth: hidden layers (default 2).
         basis: coefficients per output (default 32).
         grid: nodes of the half-phase grid (default 256, ≥ 2; the linear
@@ -103,7 +104,7 @@ class PhaseONet(OperatorNet):
 
     query_coupled = False
 
-    def __init__(self, width=256, depth=2, basis=32, grid=256, nodes=64, activation="gelu",
+    def __init__(self, width=128, depth=2, basis=32, grid=256, nodes=64, activation="gelu",
                  n_sensors=100, n_outputs=2, head="phase", horizon=2.0):
         super().__init__()
         if head not in ("phase", "time"):
@@ -120,9 +121,11 @@ class PhaseONet(OperatorNet):
         self.head, self.horizon = head, float(horizon)
         self.n_sensors, self.n_outputs, self.grid = n_sensors, n_outputs, grid
         S, w = period_quadrature(n_sensors, nodes)
-        # Derived from the constructor arguments: not part of the state_dict.
-        self.register_buffer("quad_matrix", torch.tensor(S), persistent=False)
-        self.register_buffer("quad_weights", torch.tensor(w), persistent=False)
+        # float64 whatever the network's dtype (cast_network would round buffers), and
+        # not in the state_dict: 2 (V0 − V) S = bias − V (2S), one addmm.
+        self._quadrature = {}
+        self._quad_cpu = (torch.tensor(V0 * 2 * S.sum(0)), torch.tensor(-2 * S),
+                          torch.tensor(w))
         # Grid coordinate: the half-phase h ∈ [0, 1/2] (or t / horizon ∈ [0, 1]).
         h = np.linspace(0.0, 0.5, grid) if head == "phase" else np.linspace(0, 1, grid)
         angle = 2 * np.pi * h if head == "phase" else np.pi * h
@@ -132,7 +135,7 @@ class PhaseONet(OperatorNet):
         # Q starts at the harmonic orbit (1 − cos 2πh)/2, its correction scaled by 0.1
         # so that the first steps do not swamp it; P starts at zero.
         base = (1 - np.cos(angle)) / 2 if head == "phase" else np.zeros(grid)
-        shift = np.stack([base, np.zeros(grid)])[:n_outputs, None, :]
+        shift = np.stack([base, np.zeros(grid)])[:n_outputs, None, :]   # (k, 1, grid)
         self.register_buffer("out_shift", torch.tensor(shift, dtype=torch.float32),
                              persistent=False)
         self.register_buffer("out_scale", torch.tensor([0.1, 1.0])[:n_outputs, None, None],
@@ -146,31 +149,40 @@ class PhaseONet(OperatorNet):
 
     def period(self, V):
         """T[V] of the sensor spline, shape (B,), float64."""
-        gap = (V0 - V.to(torch.float64)) @ self.quad_matrix.to(torch.float64)
-        speed = torch.sqrt(2 * gap.clamp_min(1e-12))
-        return 2 * (self.quad_weights.to(torch.float64) / speed).sum(-1)
+        if V.device not in self._quadrature:
+            self._quadrature[V.device] = tuple(a.to(V.device) for a in self._quad_cpu)
+        bias, matrix, weights = self._quadrature[V.device]
+        squared_speed = torch.addmm(bias, V.to(torch.float64), matrix).clamp_(min=2e-12)
+        return torch.rsqrt_(squared_speed) @ (2 * weights)
 
     def _forward(self, V, t):
         T = self.period(V)
         x = torch.cat([(V0 - V) / 2, torch.log(T).to(V.dtype)[:, None]], dim=1)
-        k = self.n_outputs
-        coeffs = self.branch(x).unflatten(1, (k, -1)).transpose(0, 1)   # (k, B, basis)
-        shapes = torch.baddbmm(self.out_shift, coeffs * self.out_scale, self.basis)
+        coeffs = self.branch(x)                                   # (B, k · basis)
+        r = self.basis.shape[1]
+        # Per output a plain 2-D product and 2-D gathers: contiguous operands are what
+        # keeps this head cheap next to the MLP on a CPU.
+        shapes = [torch.addmm(self.out_shift[k, 0], coeffs[:, k * r:(k + 1) * r],
+                              self.basis[k] * self.out_scale[k, 0])
+                  for k in range(self.n_outputs)]                 # each (B, grid)
         if self.head == "time":
-            x = (t[:, 0] * ((self.grid - 1) / self.horizon)).to(shapes.dtype)
+            x = (t[:, 0] * ((self.grid - 1) / self.horizon)).to(coeffs.dtype)
             x, sign = x[None, :].expand(len(V), -1), None
         else:
             # Phase u = t/T mod 1 in float64 when a time is far enough for float32's
             # 6e-8 relative error to move the phase (|t| > 16).
-            wide = torch.float64 if bool((t.abs() > 16).any()) else shapes.dtype
-            r = t[:, 0].to(wide)[None, :] * (1 / T).to(wide)[:, None]
-            u = r - torch.floor(r)
-            sign = torch.sign(0.5 - u).to(shapes.dtype)        # p changes sign at T/2
-            x = ((0.5 - torch.abs(u - 0.5)) * (2 * (self.grid - 1))).to(shapes.dtype)
+            wide = torch.float64 if bool((t.abs() > 16).any()) else coeffs.dtype
+            d = torch.frac(torch.outer(torch.reciprocal(T).to(wide), t[:, 0].to(wide)))
+            d = d.sub_(0.5)                              # u − 1/2 ∈ [−1/2, 1/2)
+            sign = torch.sign(d).neg_().to(coeffs.dtype)  # p changes sign at T/2
+            # grid coordinate of the half-phase 1/2 − |u − 1/2|
+            x = d.abs_().mul_(-2 * (self.grid - 1)).add_(self.grid - 1).to(coeffs.dtype)
         j = torch.floor(x).clamp_(0, self.grid - 2)
-        index = j.long()[None].expand(k, -1, -1)
-        left = torch.gather(shapes, 2, index)
-        y = torch.lerp(left, torch.gather(shapes, 2, index + 1), (x - j).clamp_(max=1))
-        if k == 2 and sign is not None:
-            y = torch.stack([y[0], y[1] * sign])
-        return y.permute(1, 2, 0)
+        weight = (x - j).clamp_(max=1)
+        left = j.long()
+        right = left + 1
+        ys = [torch.lerp(torch.gather(g, 1, left), torch.gather(g, 1, right), weight)
+              for g in shapes]
+        if len(ys) == 2 and sign is not None:
+            ys[1] = ys[1].mul_(sign) if not torch.is_grad_enabled() else ys[1] * sign
+        return torch.stack(ys, dim=-1)

@@ -19,7 +19,7 @@ ARCHITECTURES = {
         "mambonet": dict(d_model=128, num_mamba_layers=4, nhead=4,
                          num_decoder_layers=4, dim_feedforward=1024),
         "fno": dict(n_modes=16, hidden_channels=64, n_layers=4),
-        "phaseonet": dict(width=256, depth=2, basis=32, grid=256),
+        "phaseonet": dict(width=128, depth=2, basis=32, grid=256),
     },
     "cpu": {
         "deeponet": dict(hidden_size=128, hidden_layers=3, branches=10),
@@ -28,7 +28,7 @@ ARCHITECTURES = {
         "mambonet": dict(d_model=32, num_mamba_layers=2, nhead=4,
                          num_decoder_layers=2, dim_feedforward=128),
         "fno": dict(n_modes=16, hidden_channels=32, n_layers=4),
-        "phaseonet": dict(width=256, depth=2, basis=32, grid=256),
+        "phaseonet": dict(width=128, depth=2, basis=32, grid=256),
     },
 }
 
