@@ -155,18 +155,28 @@ def _input_kind(pot, information):
     return "bspline" if isinstance(pot, BoundedPotential) else "formula"
 
 
-def _classical_seconds(calibration, tol, kind="bspline"):
+def _classical_seconds(calibration, tol, kind="bspline", batched=False):
     tols = np.log10(calibration["classical_tols"])
     seconds = calibration.get(_TIMINGS[kind], calibration["classical_seconds"])
+    if batched:  # per row inside solve_many, where calibrated (else one call's)
+        seconds = calibration.get(_TIMINGS[kind] + "_batched", seconds)
     return float(np.interp(-np.log10(tol), -tols, seconds))
 
 
+def _neural_seconds(calibration, batched=False):
+    if batched:
+        return calibration.get("neural_seconds_batched", calibration["neural_seconds"])
+    return calibration["neural_seconds"]
+
+
 @functools.lru_cache(maxsize=256)
-def _ranked(tol, kind, calibrations):
+def _ranked(tol, kind, calibrations, batched=False):
     """(candidates, notes) for ``tol`` and a kind of input (:data:`_TIMINGS`): the
     networks expected to be cheaper than the classical solve, as (name, expected
     seconds, share) cheapest first; cached per tolerance, kind and calibration
-    (``calibrations``: ids, so a new one is seen)."""
+    (``calibrations``: ids, so a new one is seen). ``batched``: compare the per-row
+    costs inside ``solve_many`` (a network's batched forward and estimate against the
+    batched classical solve) instead of one call's."""
     candidates, notes = [], []
     for name in _networks():
         cal = _calibration(name)
@@ -174,8 +184,8 @@ def _ranked(tol, kind, calibrations):
             notes.append(f"{name}: not calibrated")
             continue
         share = acceptance_rate(cal, tol)
-        t_cls = _classical_seconds(cal, tol, kind)
-        expected = cal["neural_seconds"] + (1.0 - share) * t_cls
+        t_cls = _classical_seconds(cal, tol, kind, batched)
+        expected = _neural_seconds(cal, batched) + (1.0 - share) * t_cls
         if expected >= t_cls:
             notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
                          f"expected {1e6 * expected:.0f} µs against {1e6 * t_cls:.0f} µs")

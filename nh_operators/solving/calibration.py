@@ -192,7 +192,9 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         (per family: drawn, admitted, median and bounded quantile of true / raw),
         ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
         the in-distribution family, at ``probabilities``), ``neural_seconds``,
-        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula) and
+        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula), their
+        per-row costs inside ``solve_many`` (``neural_seconds_batched``,
+        ``classical_seconds_batched``, ``classical_seconds_sensors_batched``) and
         ``device``.
     """
     from ..data import load_dataset
@@ -230,8 +232,14 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     return _written(result, name, model, write)
 
 
-def _timings(result, name, dataset, n_timing):
-    """Median seconds of one network solve and of the classical solves (in place)."""
+def _timings(result, name, dataset, n_timing, n_batched=(1000, 300, 50)):
+    """Median seconds of one network solve and of the classical solves, and the per-row
+    seconds of the same in ``solve_many`` (in place).
+
+    ``n_batched``: rows of the batched network timing (sensor values), of the batched
+    classical timing on sensor values, and on the exact B-splines.
+    """
+    from .._backend import single_threaded
     from ..evaluation import device_info
 
     pots = [dataset.potential(i) for i in range(min(n_timing, len(dataset)))]
@@ -239,7 +247,41 @@ def _timings(result, name, dataset, n_timing):
         lambda pot: neural_solve(name, pot, "exact V", TIMES), pots)
     result["classical_tols"] = CLASSICAL_TOLS
     result.update(_classical_timings(dataset.checksum, tuple(pots)))
+    with single_threaded():
+        result["neural_seconds_batched"] = _per_row_seconds(
+            _batched_network(name), dataset.V[:n_batched[0]])
+        result.update(_batched_classical_timings(dataset, n_batched[1:]))
     result["device"] = device_info("cpu")
+
+
+def _per_row_seconds(fn, rows, repeats=2):
+    """Best of ``repeats`` calls of ``fn(rows)`` after a warm-up, per row."""
+    fn(rows[:10])
+    return _median_seconds(fn, [rows], repeats) / len(rows)
+
+
+def _batched_network(name):
+    """What ``solve_many`` does with a network's rows: predict, estimate at the times."""
+    from .many import _network_rows
+
+    return lambda V: _network_rows(name, V, None, TIMES, np.arange(len(V)), 1.0)
+
+
+def _batched_classical_timings(dataset, sizes):
+    """Per-row seconds of ``solve_many(method="rk4")`` at each of :data:`CLASSICAL_TOLS`
+    on sensor values and on the exact B-splines; once per process and dataset."""
+    from .many import solve_many
+
+    key = ("batched", dataset.checksum, tuple(sizes))
+    if key not in _TIMINGS:
+        sensors, bsplines = dataset.V[:sizes[0]], dataset.potentials()[:sizes[1]]
+        _TIMINGS[key] = {
+            field: [_per_row_seconds(
+                lambda rows: solve_many(rows, TIMES, tol=tol, method="rk4"), items, 1)
+                for tol in CLASSICAL_TOLS]
+            for field, items in (("classical_seconds_sensors_batched", sensors),
+                                 ("classical_seconds_batched", bsplines))}
+    return _TIMINGS[key]
 
 
 def _written(result, name, model, write):

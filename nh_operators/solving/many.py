@@ -198,7 +198,8 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         names = [method]
     elif method == "auto" and tol is not None:
         kind = "sensors" if V is not None else "bspline"
-        candidates = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks))[0]
+        candidates = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks),
+                             True)[0]
         names = [c[0] for c in candidates]
     else:
         names = []

@@ -69,3 +69,33 @@ def test_bad_rows_are_named(scene):
         nh.solve_many(V, [1.0], q0=0.5, p0=[0, 0, 3.0] + [0] * (len(V) - 3))
     with pytest.raises(ValueError, match=r"t must have shape \(M,\) or \(N, M\)"):
         nh.solve_many(V, np.zeros((2, 3)))
+
+
+def test_solve_many_weighs_per_row_batched_costs_not_one_calls(monkeypatch):
+    from nh_operators.solving import auto_solve
+
+    name = "phaseonet-paper"
+    model = auto_solve._model(name)
+    cal = dict(model.calibration)
+    n = len(cal["classical_tols"])
+    # one call of the network costs more than one classical call, a batched row less
+    cal.update(neural_seconds=1.0, neural_seconds_batched=1e-6,
+               classical_seconds_sensors=[0.5] * n,
+               classical_seconds_sensors_batched=[1e-4] * n)
+    monkeypatch.setattr(model, "calibration", cal)
+    auto_solve._ranked.cache_clear()
+    ids = tuple(id(auto_solve._calibration(m)) for m in auto_solve._networks())
+    tol = 1e-2
+    share = auto_solve.acceptance_rate(cal, tol)
+    assert share > 0.5
+    single, _ = auto_solve._ranked(tol, "sensors", ids)
+    batched, _ = auto_solve._ranked(tol, "sensors", ids, True)
+    assert name not in [c[0] for c in single]
+    (expected,) = [c[1] for c in batched if c[0] == name]
+    assert expected == pytest.approx(1e-6 + (1 - share) * 1e-4)
+    # without batched keys (older calibrations) the single-call costs are used
+    for key in ("neural_seconds_batched", "classical_seconds_sensors_batched"):
+        del cal[key]
+    auto_solve._ranked.cache_clear()
+    assert name not in [c[0] for c in auto_solve._ranked(tol, "sensors", ids, True)[0]]
+    auto_solve._ranked.cache_clear()

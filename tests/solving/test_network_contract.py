@@ -58,7 +58,7 @@ def _patch(monkeypatch, factor_scale=1.0):
     for name in nh.available_pretrained():
         model = auto_solve._model(name)
         cal = dict(model.calibration)
-        cal["neural_seconds"] = 0.0
+        cal["neural_seconds"] = cal["neural_seconds_batched"] = 0.0
         cal["factor"] *= factor_scale
         cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]
         monkeypatch.setattr(model, "calibration", cal)
