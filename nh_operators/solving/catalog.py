@@ -3,7 +3,8 @@ of each (torch-free).
 
 A shipped model is a folder ``weights/NAME``. Its name says the data it was trained on:
 ``MODEL-paper`` on ``paper-standard`` (the distribution of the paper's tables) and
-``MODEL-alg1`` on ``alg1-standard`` (Algorithm 1 as printed). A bare model name
+``MODEL-alg1`` on ``alg1-standard`` (Algorithm 1 as printed); ``phaseonet-*`` on the
+``-extended`` presets (100,000 potentials) of the same distributions. A bare model name
 (``"traonet"``) means its ``-alg1`` weights, as earlier releases shipped.
 """
 

@@ -137,5 +137,9 @@ def test_a_shipped_domain_holds_the_physical_potentials_it_was_scored_on(name):
     domain = network_domain(name)
     assert pretrained(name).domain == domain
     if (WEIGHTS / name / "domain.json").is_file():
-        assert domain["rows"] == 8000 and "training rows" in domain["source"]
+        # the rows it trained on: 80 % of its training set, a standard (10k) or an
+        # extended (100k) preset, as its training command says
+        train = [c for c in pretrained(name).metrics["commands"] if " train " in c]
+        rows = 80000 if "-extended.h5" in train[0] else 8000
+        assert domain["rows"] == rows and "training rows" in domain["source"]
     assert in_domain(nh.PHYSICAL_POTENTIALS["sho"].V(nh.SENSORS), domain)
