@@ -103,8 +103,9 @@ def faster_statements(rows, regime="batched"):
                        f"target ≥ {low:.2e}: no classical method here is as fast.")
         else:
             out.append(f"{head} is faster than every classical method for targets in "
-                       f"[{low:.2e}, {high:.2e}); below {high:.2e}, {blocker['name']} "
-                       f"({_us(blocker['seconds'])}) is both faster and accurate enough.")
+                       f"[{low:.2e}, {high:.2e}); for targets of {high:.2e} or looser, "
+                       f"{blocker['name']} ({_us(blocker['seconds'])}) is both faster and "
+                       f"accurate enough.")
     if not out:
         out.append("No network was evaluated, so no network is faster than every "
                    "classical method.")

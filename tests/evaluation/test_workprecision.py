@@ -37,6 +37,7 @@ def test_statements_name_the_numbers():
     rows = CLASSICAL + [row("a", 5e-3, 1e-7, "neural"), row("b", 3e-5, 1e-2, "neural")]
     a, b = faster_statements(rows)
     assert a.startswith("a (large batch, 5.0 ms") and "[1.00e-07, 4.00e-06)" in a
+    assert "for targets of 4.00e-06 or looser, rk4_4 (20.0 µs)" in a
     assert "at no accuracy: rk4_4 takes 20.0 µs and reaches 4.00e-06" in b
     assert "No network" in faster_statements(CLASSICAL)[0]
 
