@@ -42,8 +42,8 @@ def period_quadrature(n_sensors=100, nodes=64):
 
     Args:
         n_sensors: sensor count m (uniform on [0, 1]).
-        nodes: Gauss–Legendre nodes (64: relative error ≤ 3e-5 against 256 nodes on
-            100,000 Algorithm-1 and paper-distribution potentials).
+        nodes: Gauss–Legendre nodes (default 64; ``tests/models/test_phaseonet.py``
+            checks the period against exact and independent ones).
 
     Returns:
         (S, w): S of shape (m, nodes) in float64, w of shape (nodes,) with the
