@@ -37,7 +37,7 @@ def period_quadrature(n_sensors=100, nodes=64):
     """The period T[V] as a linear map followed by a weighted sum of 1/sqrt.
 
     With q = (1 − cos πs)/2 the end-point singularities of 1/sqrt(V0 − V) cancel
-    (V0 − V ≈ |V'| q near a wall, dq/ds ∝ sin πs), and Gauss–Legendre in s converges
+    (V0 − V ≈ −V'(0) q near the wall at 0, dq/ds ∝ sin πs), and Gauss–Legendre in s converges
     fast: T = 2 Σ_k w_k / sqrt(2 (S (V0 − V_sensors))_k).
 
     Args:
@@ -78,7 +78,7 @@ class PhaseONet(OperatorNet):
         depth: hidden layers (default 2).
         basis: coefficients per output (default 32).
         grid: nodes of the half-phase grid (default 256, ≥ 2; the linear
-            interpolation's error is at most (1/(2·(grid − 1)))²/8 · max |Q''|).
+            interpolation's error is at most (1/(2·(grid − 1)))²/8 · max abs(Q'')).
         nodes: Gauss–Legendre nodes of the period quadrature (default 64).
         activation: "gelu" (default), "relu", "tanh" or "silu".
         n_sensors: length m of V (default 100).
