@@ -41,6 +41,7 @@ import numpy as np
 import torch
 
 import nh_operators as nh
+from nh_operators.evaluation import time_call
 from nh_operators.evaluation.methods import classical_methods
 from nh_operators.training import read_history
 
@@ -101,13 +102,8 @@ def _validation(args):
 
 
 def _time(fn, repeats):
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    """Median seconds of ``repeats`` calls after one warm-up."""
+    return statistics.median(time_call(fn, repeats=repeats, warmup=1))
 
 
 def _speed(forward, V, repeats):
