@@ -91,11 +91,13 @@ FAMILIES = ("in distribution", "sensors", "other distribution", "out of distribu
 
 def calibration_table():
     """The calibration of each shipped model (``calibration.json``, ``nh-operators
-    calibrate``): per family of calibration inputs, how many the domain admitted and the
-    bound on the 99.9 % quantile of true / (E + D); the factor used (the largest bound);
-    the median estimate / true on the in-distribution family; one network solve's time."""
-    print("\n| model | " + " | ".join(f"{f}: admitted, bound" for f in FAMILIES)
-          + " | factor | median estimate / true | network solve, µs | load average |")
+    calibrate``): per family of calibration inputs, how many the domain admitted and,
+    per bin of the raw estimate, the bound on the 99.9 % quantile of true / raw (with
+    the count where it is not all of them); the factors used (per bin, the largest bound,
+    never below a lower bin's); the median calibrated estimate / true on the
+    in-distribution family; one network solve's time."""
+    print("\n| model | " + " | ".join(f"{f}: admitted; per bin: bound (n)" for f in FAMILIES)
+          + " | factors | median estimate / true | network solve, µs | load average |")
     print("|---|" + "---:|" * (len(FAMILIES) + 4))
     for name in available_pretrained():
         path = WEIGHTS / name / "calibration.json"
@@ -106,11 +108,14 @@ def calibration_table():
         cells = []
         for fam in FAMILIES:
             f = c.get("families", {}).get(fam)
-            cells.append("–" if not f else f"{f['admitted']}/{f['drawn']}, "
-                         + (f"{f['ratio_bound']:.3g}" if f["admitted"] else "–"))
-        median = c["factor"] / c["families"]["in distribution"]["ratio_median"]
-        print(f"| {name} | " + " | ".join(cells) + f" | {c['factor']:.3g} | {median:.3g} | "
-              f"{1e6 * c['neural_seconds']:.0f} | "
+            if not f or not f["admitted"]:
+                cells.append("–" if not f else f"0/{f['drawn']}")
+                continue
+            cells.append(f"{f['admitted']}/{f['drawn']}; " + ", ".join(
+                f"{b['bound']:.3g} ({b['n']})" if b["n"] else "–" for b in f["bins"]))
+        print(f"| {name} | " + " | ".join(cells) + " | "
+              + ", ".join(f"{x:.3g}" for x in c["factors"])
+              + f" | {c['estimate_over_true_median']:.3g} | {1e6 * c['neural_seconds']:.0f} | "
               f"{c['device'].get('load_average', float('nan'))} |")
 
 

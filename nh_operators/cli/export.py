@@ -20,13 +20,19 @@ def _calibrate(args):
     for model in args.model:
         cal = calibrate_pretrained(model, args.data, other=other,
                                    timings_only=args.timings_only)
-        fams = "; ".join(f"{fam} {f['admitted']}/{f['drawn']}"
-                         + (f", median {f['ratio_median']:.2g}, bound {f['ratio_bound']:.3g}"
-                            if f["admitted"] else "")
-                         for fam, f in cal["families"].items())
-        print(f"{model}: factor {cal['factor']:.3g} (the largest bound on the "
-              f"{100 * cal['quantile']:g} % quantile of true L_tot / (E + D), "
-              f"{100 * cal['confidence']:g} % confidence; {fams}); network solve "
+        fams = "; ".join(
+            f"{fam} {f['admitted']}/{f['drawn']}"
+            + (f", median {f['ratio_median']:.2g}, per bin " if f["admitted"] else "")
+            + ", ".join(f"{c['n']} (bound {c['bound']:.3g})" if c["n"] else "0"
+                        for c in f["bins"] if f["admitted"])
+            for fam, f in cal["families"].items())
+        bins = ", ".join(f"{f:.3g}" for f in cal["factors"])
+        print(f"{model}: factors {bins} for raw estimates split at "
+              f"{', '.join(f'{x:g}' for x in cal['limits'])} (the largest bounds on the "
+              f"{100 * cal['quantile']:g} % quantile of true L_tot / raw estimate, "
+              f"{100 * cal['confidence']:g} % confidence; {fams}); "
+              f"median estimate / true in distribution "
+              f"{cal.get('estimate_over_true_median', float('nan')):.3g}; network solve "
               f"{1e6 * cal['neural_seconds']:.0f} µs", flush=True)
 
 

@@ -8,11 +8,11 @@ from .._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
     "auto_solve": ["DEFAULT_TOL", "Solution", "solve"],
-    "calibration": ["CLASSICAL_TOLS", "calibrate_pretrained", "calibration_families",
-                    "upper_quantile"],
+    "calibration": ["CLASSICAL_TOLS", "LIMITS", "calibrate_pretrained",
+                    "calibration_families", "upper_quantile"],
     "contract": ["Case", "contract_cases", "measure_contract", "network_estimates"],
-    "estimate": ["CALIBRATION_QUANTILE", "calibrate", "estimate_at", "raw_estimate", "residuals",
-                 "spline_rows"],
+    "estimate": ["CALIBRATION_QUANTILE", "calibrate", "calibrated", "estimate_at",
+                 "propagated_error", "raw_estimate", "residuals", "spline_rows"],
     "many": ["ManySolution", "solve_many"],
     "catalog": ["CALIBRATION", "DOMAIN", "WEIGHTS", "available_pretrained", "network_domain",
                 "resolve_pretrained"],

@@ -14,8 +14,9 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
    T_classical(tol), where T_classical is the one for this kind of input (a generator
    B-spline, sensor values, or a formula, which the solver integrates in Python).
 3. The cheapest candidate predicts on :data:`TIMES`, interpolated to ``t`` by cubic
-   splines; its estimate is ``factor · (E + D)`` (energy residual plus Picard defect at
-   the asked times, :mod:`nh_operators.solving.estimate`). At or below ``tol`` that
+   splines; its estimate is the calibrated raw one, raw being the Picard defect carried through
+   the linearised flow to the asked times (:mod:`nh_operators.solving.estimate`). At or
+   below ``tol`` that
    prediction is returned;
    otherwise the classical solver runs, and the record lists both attempts.
 
@@ -34,7 +35,7 @@ import numpy as np
 from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import CALIBRATION, WEIGHTS, available_pretrained, network_domain, resolve_pretrained
-from .estimate import acceptance_rate, estimate_at, sensor_force
+from .estimate import acceptance_rate, calibrated, estimate_at, sensor_force
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
 
@@ -108,7 +109,7 @@ def neural_solve(name, pot, information, t):
     """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t.
 
     Returns:
-        (q, p, estimate): the estimate is the calibrated one, or the raw E + D when the
+        (q, p, estimate): the estimate is the calibrated one, or the raw estimate when the
         model has no calibration.
     """
     from .._backend import single_threaded
@@ -120,7 +121,7 @@ def neural_solve(name, pot, information, t):
 
 def neural_raw(name, pot, information, t=TIMES):
     """Model ``name``'s prediction at the times ``t`` (the spline through its prediction
-    on :data:`TIMES`) and its uncalibrated E + D there
+    on :data:`TIMES`) and its uncalibrated estimate there
     (:func:`~nh_operators.solving.estimate.estimate_at`): (q, p, raw), q and p (M,)."""
     from ..models import predict
 
@@ -138,8 +139,7 @@ def neural_raw(name, pot, information, t=TIMES):
 def _neural_solve(name, pot, information, t):
     model = _model(name)
     q, p, raw = neural_raw(name, pot, information, t)
-    factor = model.calibration["factor"] if model.calibration else 1.0
-    return q, p, factor * raw
+    return q, p, float(calibrated(raw, model.calibration))
 
 
 #: Which of the calibration's classical timings applies to a kind of input.

@@ -20,14 +20,19 @@ from ..solvers import adaptive_solve
 from ..training import write_atomic
 from .auto_solve import _model, neural_raw, neural_solve
 from .catalog import CALIBRATION
-from .estimate import sensor_force
+from .estimate import calibrated, sensor_force
 
 __all__ = ["calibrate_pretrained", "calibration_families", "upper_quantile", "CLASSICAL_TOLS",
-           "QUANTILE", "CONFIDENCE"]
+           "QUANTILE", "CONFIDENCE", "LIMITS"]
 
-#: The quantile of true / (E + D) that the factor bounds, and the confidence of the bound.
+#: The quantile of true / raw estimate that the factor bounds, and the confidence of the bound.
 QUANTILE = 0.999
 CONFIDENCE = 0.95
+
+#: Raw estimates are calibrated in bins split at these values (L_tot units; 1e-3 is an
+#: RMS error of 3 % of the orbit's size): the estimate is first order in the error, so
+#: its ratio to the truth spreads more as the error grows, and each bin gets its factor.
+LIMITS = (1e-3, 1e-2)
 
 #: Tolerances at which the classical solve's time is measured.
 CLASSICAL_TOLS = [10.0 ** -k for k in range(1, 13)]
@@ -73,7 +78,7 @@ def _asked_times(rng):
 
 
 def _batch_ratios(name, pots, sensors, rng, group=20):
-    """true L_tot and raw E + D of model ``name`` on the rows of a batched B-spline
+    """true L_tot and raw estimate of model ``name`` on the rows of a batched B-spline
     ``pots`` inside its domain, each group of rows at one random set of asked times;
     ``sensors``: the input is the sensor values (force and truth: their spline)."""
     from ..models import predict
@@ -168,10 +173,13 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
                          ood_seed=2719, quantile=QUANTILE, timings_only=False, write=True):
     """Calibrate shipped model ``name`` and write its calibration file.
 
-    The factor makes ``factor · (E + D)`` at the asked times an upper bound of the true
-    L_tot per call: it is the largest, over the families of
-    :func:`calibration_families`, of a bootstrap upper bound (confidence
-    :data:`CONFIDENCE`) on the ``quantile`` of true / (E + D).
+    The factor makes ``factor · raw`` at the asked times
+    (:func:`~nh_operators.solving.estimate_at`) an upper bound of the true L_tot per
+    call: it is the largest, over the families of :func:`calibration_families`, of a
+    bootstrap upper bound (confidence :data:`CONFIDENCE`) on the ``quantile`` of
+    true / raw. The raw estimate is first order in the error, so samples are bounded
+    per bin of raw (split at :data:`LIMITS`), each bin with its factor, never smaller
+    than a lower bin's (:func:`~nh_operators.solving.calibrated`).
 
     Args:
         name: a shipped model (:func:`~nh_operators.available_pretrained`).
@@ -188,8 +196,11 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         write: write ``weights/NAME/calibration.json`` (atomically).
 
     Returns:
-        the calibration dict: ``factor``, ``quantile``, ``confidence``, ``families``
-        (per family: drawn, admitted, median and bounded quantile of true / raw),
+        the calibration dict: ``limits``, ``factors`` (one per bin), ``factor`` (the
+        first bin's), ``quantile``, ``confidence``, ``families`` (per family: drawn,
+        admitted, median and largest true / raw, and per bin the count and the bounded
+        quantile),
+        ``estimate_over_true_median`` (in distribution),
         ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
         the in-distribution family, at ``probabilities``), ``neural_seconds``,
         ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula), their
@@ -210,24 +221,38 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         return _written(result, name, model, write)
     fams = calibration_families(name, dataset, other=other, n_ood=n_ood, ood_seed=ood_seed)
     result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
-              dataset.checksum, "ood_seed": ood_seed, "families": {}}
-    factor = 0.0
+              dataset.checksum, "ood_seed": ood_seed, "limits": list(LIMITS),
+              "families": {}}
+    bounds = [[] for _ in range(len(LIMITS) + 1)]
     for fam, (true, raw, drawn) in fams.items():
         ratio = true / np.maximum(raw, 1e-300)
-        entry = {"drawn": drawn, "admitted": int(true.size)}
+        entry = {"drawn": drawn, "admitted": int(true.size), "bins": []}
         if true.size:
-            bound = upper_quantile(ratio, quantile)
-            entry.update(ratio_median=float(np.median(ratio)), ratio_bound=bound,
-                         ratio_max=float(ratio.max()))
-            factor = max(factor, bound)
+            entry.update(ratio_median=float(np.median(ratio)), ratio_max=float(ratio.max()))
+        where = np.searchsorted(LIMITS, raw, side="left")  # bin k: (limit k-1, limit k]
+        for k in range(len(LIMITS) + 1):
+            pick = where == k
+            cell = {"n": int(pick.sum())}
+            if pick.any():
+                cell["bound"] = upper_quantile(ratio[pick], quantile)
+                bounds[k].append(cell["bound"])
+            entry["bins"].append(cell)
         result["families"][fam] = entry
-    result["factor"] = factor
+    # each bin's factor is the largest family bound in it (a bin no sample reached takes
+    # the largest of all), never below a lower bin's: the estimate grows with raw
+    if not any(bounds):
+        raise ValueError(f"{name}: no calibration input lies inside the network's domain")
+    top = max(b for bs in bounds for b in bs)
+    result["factors"] = np.maximum.accumulate([max(bs) if bs else top for bs in bounds]).tolist()
+    result["factor"] = result["factors"][0]
     true, raw, _ = fams["in distribution"]
+    estimate = calibrated(raw, result)
     probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
     result.update(n=int(true.size), probabilities=probabilities,
-                  estimate_quantiles=[float(v) for v in np.quantile(factor * raw,
-                                                                    probabilities)],
-                  L_quantiles=[float(v) for v in np.quantile(true, probabilities)])
+                  estimate_quantiles=[float(v) for v in np.quantile(estimate, probabilities)],
+                  L_quantiles=[float(v) for v in np.quantile(true, probabilities)],
+                  estimate_over_true_median=float(np.median(estimate / np.maximum(true,
+                                                                                 1e-300))))
     _timings(result, name, dataset, n_timing)
     return _written(result, name, model, write)
 

@@ -12,16 +12,17 @@ the physics it should obey, using nothing but the potential:
   the energy misses: a prediction that moves along the right energy curve at the wrong
   speed.
 
-Both are in the units of L_tot (mean squared error), and both are taken at the times the
-user asked (:func:`estimate_at`: the prediction on the grid is interpolated there by
-cubic splines, as :func:`~nh_operators.solve` returns it). Neither bounds the error: the
-error of a trajectory is the defect carried through the flow, which can grow. So the
-estimate used by :func:`~nh_operators.solve` is ``factor · (E + D)``, with ``factor``
-calibrated per network (:func:`~nh_operators.solving.calibrate_pretrained`): a bootstrap
-upper bound on the 99.9 % quantile of true L_tot / (E + D) over several families of
-inputs it was not trained on, at random asked times. ``calibration.json`` of each shipped
-model holds the numbers; ``python benchmarks/pretrained_table.py --calibration`` prints
-them.
+Both are in the units of L_tot (mean squared error). Neither is the error: the error
+of a trajectory is the defect carried through the flow, and a phase drift grows along
+the trajectory while the defect sees it only locally. So the estimate that
+:func:`~nh_operators.solve` uses (:func:`estimate_at`) carries the signed defect through
+the flow linearised about the prediction (:func:`propagated_error`), at the times the
+user asked: to first order in the error, that is the error itself. Its calibrated form
+is ``factor · raw``, with ``factor`` calibrated per network
+(:func:`~nh_operators.solving.calibrate_pretrained`): a bootstrap upper bound on the
+99.9 % quantile of true L_tot / raw over several families of inputs it was not trained
+on, at random asked times. ``calibration.json`` of each shipped model holds the numbers;
+``python benchmarks/pretrained_table.py --calibration`` prints them.
 """
 
 import functools
@@ -32,8 +33,8 @@ from scipy.interpolate import CubicSpline
 
 from .._constants import SENSORS, TIMES, V0
 
-__all__ = ["spline_rows", "residuals", "raw_estimate", "estimate_at", "calibrate",
-           "CALIBRATION_QUANTILE"]
+__all__ = ["spline_rows", "residuals", "raw_estimate", "estimate_at", "propagated_error",
+           "calibrate", "calibrated", "CALIBRATION_QUANTILE"]
 
 #: Quantile of L_tot / raw estimate that becomes the calibration factor.
 CALIBRATION_QUANTILE = 0.995
@@ -121,9 +122,9 @@ def _integration_matrix(t_bytes):
 
 
 def raw_estimate(q, p, V_rows, dV_rows, t=TIMES):
-    """E + D of :func:`residuals`: the uncalibrated estimate of L_tot, shape (N,)."""
-    energy, defect = residuals(q, p, V_rows, dV_rows, t)
-    return energy + defect
+    """The uncalibrated estimate of L_tot on the grid itself (:func:`estimate_at` at
+    ``t``), shape (N,)."""
+    return estimate_at(q, p, V_rows, dV_rows, t, t)[2]
 
 
 @functools.lru_cache(maxsize=64)
@@ -137,28 +138,35 @@ def _at_matrices(t_bytes, at_bytes):
 
 
 def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
-    """A prediction on the grid ``t`` at the asked times ``at``, and its E + D there.
+    """A prediction on the grid ``t`` at the asked times ``at``, and its estimated L_tot.
 
     The prediction between grid times is the cubic spline through the grid values (what
-    :func:`~nh_operators.solve` returns). At each asked time t the residual of
-    :func:`residuals` (energy and Picard terms) is taken there and, as a floor, its
-    largest value on the grid up to t: an error made earlier is carried to t, so a
-    residual that happens to vanish at t (one asked time) does not hide it. The
-    estimate is the mean over the asked times, so it is of L_tot where the user looks,
-    interpolation included.
+    :func:`~nh_operators.solve` returns). The error e = (q̂ − q, p̂ − p) of a prediction
+    obeys, to first order in e, the integral equation e(t) = d(t) + ∫₀ᵗ J(s) e(s) ds,
+    with d = (D_q, D_p) the signed Picard defect of :func:`residuals` and
+    J = [[0, 1], [−V″(q̂), 0]] the flow's Jacobian along the prediction. So e = d + w,
+    where w′ = J (w + d), w(0) = 0, is the defect carried through the flow linearised
+    about the prediction (:func:`propagated_error`): a phase drift, which the defect
+    sees only locally, grows in w as it does in the true error.
+
+    At each asked time the estimate is the larger of ½|e|² there and, as a floor, its
+    largest value on the grid up to that time (an error made earlier is carried to t,
+    so an error curve that happens to cross zero at the one asked time does not hide
+    it); the estimate is the mean over the asked times, so it is of L_tot where the
+    user looks, interpolation included.
 
     Args:
         q, p: (N, K) predictions on the increasing grid ``t`` (t[0] = 0).
-        V_rows, dV_rows: callables mapping (N, M) positions to each row's V and dV/dq.
+        V_rows, dV_rows: callables mapping (N, M) positions to each row's V and dV/dq
+            (V″ over each grid interval is the secant of dV/dq, :func:`_curvature`).
         at: asked times in [t[0], t[-1]], (M,) for every row or (N, M) per row.
         t: (K,) the grid (default :data:`TIMES`).
 
     Returns:
-        (q_at, p_at, raw): (N, M) each, and the (N,) uncalibrated estimate at ``at``
-        (on the grid itself, at least :func:`raw_estimate`).
+        (q_at, p_at, raw): (N, M) each, and the (N,) uncalibrated estimate at ``at``.
 
     Example:
-        >>> w = 4.0  # the exact harmonic trajectory: E + D vanish at any times
+        >>> w = 4.0  # the exact harmonic trajectory: no error to carry
         >>> q, p = (1 - np.cos(w * TIMES))[None] / 2, (w * np.sin(w * TIMES))[None] / 2
         >>> V = lambda x: 2 - w**2 * x * (1 - x) / 2
         >>> dV = lambda x: -w**2 * (1 - 2 * x) / 2
@@ -185,19 +193,82 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
             return y @ mats[0][k].T
         return np.stack([y[i] @ mats[i][k].T for i in range(len(y))])
 
-    q_at, p_at = apply(q, 0), apply(p, 0)
-    int_p, int_f = apply(p, 1), apply(force, 1)
-    here = 0.5 * ((0.5 * p_at**2 + V_rows(q_at) - V0) ** 2 + (q_at - int_p) ** 2
-                  + (p_at + int_f) ** 2)
-    # the residual on the grid up to each asked time: an error made earlier is carried
-    # to t even where the residual at t itself happens to vanish
     integrate = _integration_matrix(t.tobytes()).T
-    grid = 0.5 * ((0.5 * p**2 + V_rows(q) - V0) ** 2 + (q - p @ integrate) ** 2
-                  + (p + force @ integrate) ** 2)
-    running = np.maximum.accumulate(grid, axis=1)
+    d_q, d_p = q - p @ integrate, p + force @ integrate
+    w_q, w_p = propagated_error(d_q, d_p, _curvature(dV_rows, q, force), t)
+    q_at, p_at = apply(q, 0), apply(p, 0)
+    here = 0.5 * ((q_at - apply(p, 1) + apply(w_q, 0)) ** 2
+                  + (p_at + apply(force, 1) + apply(w_p, 0)) ** 2)
+    running = np.maximum.accumulate(0.5 * ((d_q + w_q) ** 2 + (d_p + w_p) ** 2), axis=1)
     last = np.clip(np.searchsorted(t, rows, side="right") - 1, 0, t.size - 1)
     behind = np.take_along_axis(running, last, axis=1)
     return q_at, p_at, np.mean(np.maximum(here, behind), axis=1)
+
+
+def _curvature(dV_rows, q, force, step=1e-6):
+    """V″ over each grid interval: the secant of the force between the interval's ends,
+    which also sees a kink of V crossed inside it (V = |q − ½| has V″ = δ, and the
+    secant integrates it); where the prediction hardly moves (|Δq̂| < 1e-6), the
+    central difference of the force callable at the interval's middle. Shape
+    (N, K − 1)."""
+    dq = np.diff(q, axis=1)
+    secant = np.diff(force, axis=1) / np.where(np.abs(dq) < step, 1.0, dq)
+    still = np.abs(dq) < step
+    if still.any():
+        mid = 0.5 * (q[:, 1:] + q[:, :-1])
+        point = (dV_rows(mid + step) - dV_rows(mid - step)) / (2.0 * step)
+        secant = np.where(still, point, secant)
+    return secant
+
+
+def propagated_error(d_q, d_p, curvature, t=TIMES):
+    """The Picard defect carried through the flow linearised about a prediction.
+
+    Solves w′ = J (w + d), w(0) = 0, J = [[0, 1], [−V″, 0]], on the grid ``t`` by the
+    trapezoidal rule with V″ constant over each interval (second order and A-stable: a
+    stiff V″ does not blow it up), so that d + w is the prediction's error to first
+    order (:func:`estimate_at`).
+
+    Args:
+        d_q, d_p: (N, K) the signed Picard defect on the grid.
+        curvature: (N, K − 1) V″ over each grid interval.
+        t: (K,) increasing grid.
+
+    Returns:
+        (w_q, w_p): (N, K) each.
+
+    Example:
+        >>> t = np.linspace(0, 1, 201)  # a constant position defect, free particle
+        >>> w_q, w_p = propagated_error(np.full((1, 201), 1e-3), np.zeros((1, 201)),
+        ...                             np.zeros((1, 200)), t)
+        >>> bool(np.allclose(w_q, 0) and np.allclose(w_p, 0))
+        True
+    """
+    shape = np.shape(d_q)
+    if np.shape(curvature) != (shape[0], shape[1] - 1):
+        raise ValueError(f"curvature must have shape {(shape[0], shape[1] - 1)} (one value "
+                         f"per grid interval), got {np.shape(curvature)}")
+    w_q, w_p = np.empty(shape), np.empty(shape)
+    _trapezoid(np.ascontiguousarray(t, dtype=np.float64),
+               np.ascontiguousarray(d_q, dtype=np.float64),
+               np.ascontiguousarray(d_p, dtype=np.float64),
+               np.ascontiguousarray(curvature, dtype=np.float64), w_q, w_p)
+    return w_q, w_p
+
+
+@numba.njit(cache=True, nogil=True)
+def _trapezoid(t, d_q, d_p, curv, w_q, w_p):
+    for i in range(d_q.shape[0]):
+        wq, wp = 0.0, 0.0
+        w_q[i, 0], w_p[i, 0] = 0.0, 0.0
+        for k in range(t.size - 1):
+            h = 0.5 * (t[k + 1] - t[k])
+            c1 = curv[i, k]
+            rq = wq + h * (wp + d_p[i, k] + d_p[i, k + 1])
+            rp = wp - h * c1 * (wq + d_q[i, k] + d_q[i, k + 1])
+            det = 1.0 + h * h * c1  # (I − h J₁) w₁ = r, solved in closed form
+            wq, wp = (rq + h * rp) / det, (rp - h * c1 * rq) / det
+            w_q[i, k + 1], w_p[i, k + 1] = wq, wp
 
 
 def sensor_force(V):
@@ -215,7 +286,7 @@ def calibrate(method, dataset, *, quantile=CALIBRATION_QUANTILE, batch=1000):
         method: a :class:`~nh_operators.NeuralMethod` (``method(V, TIMES)``).
         dataset: a :class:`~nh_operators.data.Dataset` on :data:`TIMES`; use potentials
             from neither the training nor the test set (another seed).
-        quantile: the factor is this quantile of L_tot / (E + D).
+        quantile: the factor is this quantile of L_tot / raw estimate.
         batch: potentials per pass.
 
     Returns:
@@ -245,6 +316,27 @@ def calibrate(method, dataset, *, quantile=CALIBRATION_QUANTILE, batch=1000):
             "dataset_checksum": dataset.checksum, "probabilities": probabilities,
             "estimate_quantiles": [float(v) for v in np.quantile(factor * raw, probabilities)],
             "L_quantiles": [float(v) for v in np.quantile(loss, probabilities)]}
+
+
+def calibrated(raw, calibration):
+    """The calibrated estimate of raw estimates ``raw`` under a model's ``calibration``.
+
+    ``factors[k] · raw`` for raw in bin k, the bins split at ``limits`` (the raw estimate
+    is first order in the error: as the error grows, its ratio to the truth spreads
+    more). A calibration with one ``factor`` applies it everywhere; ``None`` leaves
+    ``raw`` as it is.
+
+    Example:
+        >>> cal = {"factor": 2.0, "factors": [2.0, 3.0, 8.0], "limits": [1e-3, 1e-2]}
+        >>> calibrated(np.array([1e-4, 1e-3, 5e-3, 0.1]), cal).tolist()
+        [0.0002, 0.002, 0.015, 0.8]
+    """
+    raw = np.asarray(raw, dtype=np.float64)
+    if not calibration:
+        return raw
+    factors = np.asarray(calibration.get("factors", [calibration["factor"]]))
+    limits = calibration.get("limits", [])
+    return factors[np.searchsorted(limits, raw, side="left")] * raw
 
 
 def acceptance_rate(calibration, tol):

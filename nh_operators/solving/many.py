@@ -27,7 +27,7 @@ from ..solvers.states import check_states, state_arrays
 from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
                          _solve)
 from .catalog import network_domain
-from .estimate import estimate_at, sensor_force
+from .estimate import calibrated, estimate_at, sensor_force
 
 __all__ = ["CHUNK", "ManySolution", "solve_many"]
 
@@ -110,8 +110,7 @@ def _network_rows(name, V, src, t, rows, tol):
 
         force = (values, slopes)
     qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows])
-    factor = model.calibration["factor"] if model.calibration else 1.0
-    estimate = np.where(np.isfinite(raw), factor * raw, np.inf)
+    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration), np.inf)
     return qa, pa, estimate
 
 

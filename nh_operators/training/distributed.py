@@ -18,11 +18,14 @@ When a process of the job dies, the others see a failed collective; they stop wi
 on the same host that has exited), and ``--resume`` continues from the last checkpoint.
 """
 
+import contextlib
 import datetime
 import inspect
 import logging
 import os
+import signal
 import socket
+import threading
 import time
 
 import numpy as np
@@ -46,6 +49,11 @@ GRACE_SECONDS = 3.0
 #: plain RuntimeError from inside DDP's backward; newer code raises DistError).
 _PEER_WORDS = ("gloo", "nccl", "connection reset", "connection closed", "broken pipe",
                "processgroup", "timed out")
+
+
+class Terminated(RuntimeError):
+    """SIGTERM reached a rank during training (torchrun stops the others this way when
+    one rank fails)."""
 
 
 class RankFailed(RuntimeError):
@@ -161,7 +169,7 @@ class Distributed:
         """Whether ``exc`` (raised on this rank) comes from another rank having gone."""
         if not self.active or not isinstance(exc, RuntimeError):
             return False
-        if isinstance(exc, dist.DistError) or self.dead_ranks():
+        if isinstance(exc, (dist.DistError, Terminated)) or self.dead_ranks():
             return True
         return any(word in str(exc).lower() for word in _PEER_WORDS)
 
@@ -187,6 +195,26 @@ class Distributed:
             handler.flush()
         time.sleep(GRACE_SECONDS)
         return RankFailed(message)
+
+    @contextlib.contextmanager
+    def terminate_as_error(self):
+        """While training with N > 1 ranks, SIGTERM raises :class:`Terminated` instead of
+        ending the process at once, so a rank that torchrun stops because another rank
+        died still names the dead rank and the kept checkpoint (:meth:`failure`) rather
+        than racing torchrun's signal. Outside the main thread, or with one process,
+        nothing changes."""
+        if not self.active or threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def raise_terminated(signum, frame):
+            raise Terminated(f"rank {self.rank} received SIGTERM")
+
+        before = signal.signal(signal.SIGTERM, raise_terminated)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGTERM, before)
 
     def close(self):
         """Destroy the process group if :func:`init_distributed` created it."""

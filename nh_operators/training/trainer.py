@@ -149,7 +149,8 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
                      remaining, dist.world_size)
         try:
             if remaining > 0:
-                _fit(model, run, remaining)
+                with dist.terminate_as_error():
+                    _fit(model, run, remaining)
         except Exception as exc:
             if dist.is_peer_failure(exc):
                 raise dist.failure(exc, run.epoch + 1, run.last_saved) from exc

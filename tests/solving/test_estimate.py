@@ -111,11 +111,11 @@ def test_estimate_at_the_grid_is_the_grid_estimate():
     p = p[None] + 1e-3 * rng.standard_normal((2, 100))
     qa, pa, raw = estimate_at(q, p, *sho_force(), nh.TIMES)
     np.testing.assert_allclose(qa, q, rtol=0, atol=1e-14)
-    # on the grid: the mean of the running maximum of the grid residual, which is at
-    # least the mean of the residual itself (raw_estimate)
-    energy, defect = residuals(q, p, *sho_force())
-    assert np.all(raw >= (energy + defect) * (1 - 1e-12))
-    assert np.all(raw <= 100 * (energy + defect))
+    # on the grid it is raw_estimate, and white noise of 1e-3 is seen within a
+    # factor 10 (the defect of noise is partly carried, partly integrated away)
+    np.testing.assert_allclose(raw, raw_estimate(q, p, *sho_force()), rtol=1e-12)
+    true = loss_per_sample(q, p, *SHO.exact(nh.TIMES))["L_tot"]
+    assert np.all((true <= raw) & (raw <= 10 * true))
     # per-row times: each row as if asked alone
     at = rng.uniform(0, 2, (2, 5))
     qa, pa, raw = estimate_at(q, p, *sho_force(), at)
@@ -146,3 +146,47 @@ def test_the_estimate_is_of_the_asked_times_not_of_the_grid():
     ests = [auto_solve.neural_solve("deeponet-alg1", SHO, "exact V", np.array([t]))[2]
             for t in nh.TIMES[1::14]]
     assert max(ests) > 3 * min(ests)
+
+
+def test_the_estimate_carries_a_phase_drift_to_the_error_it_becomes():
+    """The defect sees a prediction 5 % too fast only locally (18x below the truth, the
+    test above); carried through the linearised flow it is the error itself (the SHO's
+    flow is linear, so only the trapezoidal rule, (h omega)^2 / 12 = 5e-4, and the
+    spline quadrature separate them)."""
+    from nh_operators.solving import estimate_at, propagated_error
+
+    t = nh.TIMES
+    q, p = SHO.exact(1.05 * t)
+    q_true, p_true = SHO.exact(t)
+    integrate = _integration_matrix(t.tobytes()).T
+    d_q, d_p = q - p @ integrate, p + SHO.dV(q) @ integrate
+    w_q, w_p = propagated_error(d_q[None], d_p[None], np.full((1, t.size - 1), 16.0), t)
+    off = np.hypot(d_q + w_q[0] - (q - q_true), d_p + w_p[0] - (p - p_true))
+    assert off.max() < 0.005 * np.hypot(q - q_true, p - p_true).max()
+    # the estimate at asked times: never below the truth; at most omega^2 = 16 above it,
+    # where one asked time meets a trough of |e|^2 (q's error and p's error, omega times
+    # larger, take turns) and the running maximum before it is the floor
+    for at in (t, np.array([1.9]), np.linspace(0.5, 1.0, 7)):
+        qa, pa, raw = estimate_at(q[None], p[None], *sho_force(), at)
+        true = loss_per_sample(qa, pa, *SHO.exact(at))["L_tot"][0]
+        assert 0.99 * true < raw[0] < 16 * true, (at, raw[0] / true)
+    # the energy residual and the Picard defect alone miss it
+    energy, defect = residuals(q[None], p[None], *sho_force())
+    assert energy[0] + defect[0] < 0.1 * loss_per_sample(q, p, q_true, p_true)["L_tot"]
+
+
+@pytest.mark.parametrize("name", ["double_well", "morse", "smff", "mff"])
+def test_the_estimate_of_nonlinear_orbits_run_too_fast(name):
+    """Nonlinear flows (the MFF's V = 4|q - 1/2| has a kink: V'' is a delta that the
+    secant curvature of each interval integrates; a pointwise V'' missed it and
+    estimated 5-10x below the truth). The prediction is the exact orbit run 0.3 % and
+    1 % fast; on the grid the estimate is within first order of the truth and its
+    running-maximum floor (the double well's |e|^2 swings 4x along the orbit)."""
+    from nh_operators.solving import estimate_at
+
+    pot = nh.PHYSICAL_POTENTIALS[name]
+    for fast in (1.003, 1.01):
+        q, p = nh.reference_solve(pot, fast * nh.TIMES)
+        _, _, raw = estimate_at(q[None], p[None], pot.V, pot.dV, nh.TIMES)
+        true = loss_per_sample(q, p, *nh.reference_solve(pot, nh.TIMES))["L_tot"]
+        assert 0.7 * true < raw[0] < 5 * true, raw[0] / true

@@ -46,11 +46,25 @@ def test_shipped_model_is_calibrated_for_solve(name):
     assert sum(f["admitted"] for f in fams.values()) >= 3000
     assert set(fams) == {"in distribution", "sensors", "other distribution",
                          "out of distribution"}
-    assert cal["factor"] == max(f["ratio_bound"] for f in fams.values() if f["admitted"])
+    _assert_factors(cal)
     # calibrated on potentials from neither the training set nor the test set
     assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
     assert cal["estimate_quantiles"] == sorted(cal["estimate_quantiles"])
     assert len(cal["classical_seconds"]) == len(cal["classical_tols"])
+
+
+def _assert_factors(cal):
+    """Each bin's factor is the largest family bound in it (the largest of all where no
+    sample fell), never below a lower bin's; the bins hold every admitted sample."""
+    fams = cal["families"].values()
+    per_bin = [[f["bins"][k]["bound"] for f in fams if f["bins"][k]["n"]]
+               for k in range(len(cal["limits"]) + 1)]
+    top = max(b for bs in per_bin for b in bs)
+    assert cal["factors"] == list(np.maximum.accumulate([max(bs) if bs else top
+                                                          for bs in per_bin]))
+    assert cal["factor"] == cal["factors"][0]
+    assert all(sum(c["n"] for c in f["bins"]) == f["admitted"] for f in fams)
+    assert cal["limits"] == [1e-3, 1e-2]
 
 
 def test_calibrate_pretrained_without_writing(tmp_path):
@@ -69,9 +83,9 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     assert fams["other distribution"]["drawn"] == 20
     assert 0 < fams["out of distribution"]["admitted"] <= 12
     # the factor is the largest family's bound, each a bound on its 99.9 % quantile
-    assert cal["factor"] == max(f["ratio_bound"] for f in fams.values() if f["admitted"])
-    assert all(f["ratio_median"] <= f["ratio_bound"] <= f["ratio_max"]
-               for f in fams.values() if f["admitted"])
+    _assert_factors(cal)
+    assert all(c["bound"] <= f["ratio_max"] for f in fams.values() for c in f["bins"]
+               if c["n"])
     assert upper_quantile(np.arange(1.0, 1001.0), 0.5) == pytest.approx(500, rel=0.1)
     assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
 

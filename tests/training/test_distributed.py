@@ -153,6 +153,26 @@ def test_peer_failures_are_told_from_local_errors():
     assert issubclass(RankFailed, RuntimeError)
 
 
+def test_sigterm_while_training_becomes_a_named_failure_not_a_silent_death():
+    """torchrun stops the other ranks with SIGTERM when one dies; if that signal beat
+    the collective's error, rank 0 died without naming the dead rank (a CI run saw
+    it). Inside ``terminate_as_error`` the signal raises, so the failure path runs."""
+    import signal
+
+    from nh_operators.training.distributed import Terminated
+
+    pair = Distributed(rank=0, world_size=2,
+                       peers=[(socket.gethostname(), os.getpid())] * 2)
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(Terminated, match="rank 0 received SIGTERM") as caught:
+        with pair.terminate_as_error():
+            os.kill(os.getpid(), signal.SIGTERM)  # handled at the next bytecode
+    assert signal.getsignal(signal.SIGTERM) is before  # restored
+    assert pair.is_peer_failure(caught.value)
+    with Distributed().terminate_as_error():  # one process: the handler is untouched
+        assert signal.getsignal(signal.SIGTERM) is before
+
+
 @pytest.mark.skipif(shutil.which("true") is None, reason="needs a POSIX shell")
 def test_a_rank_whose_process_exited_is_found_dead():
     gone = subprocess.Popen(["true"])
