@@ -5,7 +5,10 @@ its own starting state (q0, p0) and its own times. :func:`solve_many` chooses pe
 as :func:`~nh_operators.solve` would for that row alone: with ``method="auto"`` and a
 tolerance, a shipped network is tried on the rows where :func:`solve` would try it (the
 state (0, 0), times in [0, 2], sensor values inside its domain), each row going to
-the cheapest network whose domain holds it, its prediction kept where its own estimate meets the tolerance, and every other row is
+the cheapest network whose domain holds it (and on to the next where its estimate fails;
+a network offered many rows first answers a pilot of :data:`PILOT` and goes on only if
+the share it accepted there pays for its cost), its prediction kept where its own
+estimate meets the tolerance, and every other row is
 solved classically — all classical rows together, in one parallel numba kernel per
 substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a progress
 bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
@@ -29,10 +32,34 @@ from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
 from .catalog import network_domain
 from .estimate import calibrated, estimate_at, sensor_force
 
-__all__ = ["CHUNK", "ManySolution", "solve_many"]
+__all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192
+
+#: Where a network is offered at least twice this many rows, it first answers this many
+#: (spread over them) and goes on only if the share it accepted pays for its cost there.
+PILOT = 512
+
+
+def _record(tried, name, rows, accepted):
+    """Count a network's rows and accepted rows in ``tried`` (one entry per network)."""
+    if tried and tried[-1]["method"] == name:
+        tried[-1]["rows"] += int(rows)
+        tried[-1]["accepted"] += int(accepted)
+    else:
+        tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
+
+
+def _worth_it(name, share, tol, kind):
+    """Whether accepting ``share`` of the rows pays for a network's batched cost: share ·
+    T_classical > T_network, both per row as measured at calibration."""
+    from .auto_solve import _classical_seconds, _neural_seconds
+
+    cal = _calibration(name)
+    return share * _classical_seconds(cal, tol, kind, True) > _neural_seconds(cal, True)
+
+
 #: Rows from which a progress bar is shown (``progress=None``).
 PROGRESS_FROM = 20_000
 #: Rows from which the classical kernels run on all of numba's threads.
@@ -53,7 +80,8 @@ class ManySolution:
             else nan.
         seconds: wall time of the whole call.
         tol: the tolerance asked for.
-        tried: networks tried, with how many rows each accepted.
+        tried: networks tried, with how many rows each was offered and accepted (and
+            ``stopped``, why, where a pilot showed it was not worth its cost).
         records: one dict per row (built when first read): ``method``, ``kind``
             (``"classical"`` or ``"neural"``), ``error_estimate``, and for classical
             rows ``substeps`` and ``period`` (None where unused).
@@ -206,21 +234,39 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         values = V if V is not None else potentials.V(SENSORS)
         times_ok = t.max(axis=-1) <= TIMES[-1] + 1e-12
         free = rest & np.broadcast_to(times_ok, (n,))
-        for name in names:  # cheapest first; each row goes to one network at most
+        # cheapest first; a row whose estimate one network fails goes on to the next
+        # candidate whose domain holds it (each is expected to save time on its own)
+        for name in names:
             ok = free & in_domain(values, network_domain(name)) if method == "auto" else free
             rows = np.flatnonzero(ok)
-            free = free & ~ok
             if not rows.size:
                 continue
-            qn, pn, est = _network_rows(name, values, None if V is not None else src, t, rows,
-                                        target)
-            take = est <= target if method == "auto" else np.ones(rows.size, dtype=bool)
-            q_out[rows[take]], p_out[rows[take]] = qn[take], pn[take]
-            estimate[rows[take]] = est[take]
-            methods[rows[take]] = name
-            neural[rows[take]] = True
-            tried.append({"method": name, "rows": int(rows.size), "accepted": int(take.sum())})
-            classical_rows = np.setdiff1d(classical_rows, rows[take])
+            src_rows = None if V is not None else src
+            if method == "auto" and rows.size >= 2 * PILOT:
+                # its share on these rows, not on its calibration set, decides the rest
+                pilot = np.unique(np.linspace(0, rows.size - 1, PILOT).astype(np.int64))
+                rest_rows = np.delete(rows, pilot)
+                rows = rows[pilot]
+            else:
+                rest_rows = rows[:0]
+            for part in (rows, rest_rows):
+                if not part.size:
+                    continue
+                qn, pn, est = _network_rows(name, values, src_rows, t, part, target)
+                take = est <= target if method == "auto" else np.ones(part.size, dtype=bool)
+                q_out[part[take]], p_out[part[take]] = qn[take], pn[take]
+                estimate[part[take]] = est[take]
+                methods[part[take]] = name
+                neural[part[take]] = True
+                _record(tried, name, part.size, int(take.sum()))
+                free = free.copy()
+                free[part[take]] = False
+                classical_rows = np.setdiff1d(classical_rows, part[take])
+                if part is rows and rest_rows.size and not _worth_it(
+                        name, take.mean(), tol, kind):
+                    tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
+                                            f"{part.size} rows: not worth its cost")
+                    break
     substeps = np.zeros(n, dtype=np.int64)
     period = np.full(n, np.nan)
     bar = _bar(classical_rows.size, progress)

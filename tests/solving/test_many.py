@@ -99,3 +99,38 @@ def test_solve_many_weighs_per_row_batched_costs_not_one_calls(monkeypatch):
     auto_solve._ranked.cache_clear()
     assert name not in [c[0] for c in auto_solve._ranked(tol, "sensors", ids, True)[0]]
     auto_solve._ranked.cache_clear()
+
+
+def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
+    """An Algorithm-1 potential can lie in a -paper network's domain, whose estimate then
+    rejects it; its -alg1 sibling, the next candidate, must still be tried (it was not:
+    at tol 1e-3 on 10,000 Algorithm-1 rows 2 % went to phaseonet-alg1 instead of ~57 %).
+    Here phaseonet-paper is made the cheapest candidate with an estimate that always
+    fails, every network but the two PhaseONets too dear to try."""
+    from nh_operators.solving import auto_solve
+
+    for name in nh.available_pretrained():
+        model = auto_solve._model(name)
+        cal = dict(model.calibration)
+        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])  # P = 1
+        cost = {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9}.get(name, 1e3)
+        cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
+        if name == "phaseonet-paper":
+            cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
+        monkeypatch.setattr(model, "calibration", cal)
+    auto_solve._ranked.cache_clear()
+    ds = nh.generate_dataset(30, seed=77, progress=False)
+    V, tol = np.asarray(ds.V), 1e-2
+    many = nh.solve_many(V, nh.TIMES, tol=tol)
+    assert [(a["method"], a["accepted"]) for a in many.tried][0] == ("phaseonet-paper", 0)
+    assert many.tried[1]["method"] == "phaseonet-alg1" and many.tried[1]["accepted"] >= 20
+    assert set(many.methods[many.neural]) == {"phaseonet-alg1"}
+    q_ref, p_ref = nh.integrate_sensors(V, nh.TIMES, substeps=256, check_resolution=False)
+    assert np.all(loss_per_sample(many.q, many.p, q_ref, p_ref)["L_tot"] <= tol)
+    i = int(np.flatnonzero(many.neural)[0])
+    one = nh.solve(V[i], nh.TIMES, tol=tol)
+    assert [(a["method"], a["accepted"]) for a in one.tried] == [
+        ("phaseonet-paper", False), ("phaseonet-alg1", True)]
+    assert "phaseonet-paper's estimate" in one.reason
+    np.testing.assert_allclose(one.q, many.q[i], rtol=0, atol=1e-6)
+    auto_solve._ranked.cache_clear()
