@@ -10,15 +10,17 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
    ``weights/NAME/domain.json``, else the generator's:
    :func:`~nh_operators.domain_violations`; the times inside [0, 2]), and it is expected
    to be cheaper: with P the share of its calibration set whose calibrated estimate met
-   ``tol``, and the median times measured at calibration, T_net + (1 − P)·T_classical <
+   ``tol`` (the smaller of that share on its own distribution and on the other
+   generator's potentials inside its domain: a single call cannot tell which generator
+   its input came from), and the median times measured at calibration,
+   T_net + (1 − P)·T_classical <
    T_classical(tol), where T_classical is the one for this kind of input (a generator
    B-spline, sensor values, or a formula, which the solver integrates in Python).
-3. The candidates, cheapest first, predict on :data:`TIMES`, interpolated to ``t`` by
-   cubic splines; the estimate is the calibrated raw one, raw being the Picard defect
-   carried through the linearised flow to the asked times
-   (:mod:`nh_operators.solving.estimate`). The first prediction whose estimate is at
-   or below ``tol`` is returned; otherwise the classical solver runs, and the record
-   lists every attempt.
+3. The cheapest candidate predicts on :data:`TIMES`, interpolated to ``t`` by cubic
+   splines; its estimate is the calibrated raw one, raw being the Picard defect carried
+   through the linearised flow to the asked times
+   (:mod:`nh_operators.solving.estimate`). At or below ``tol`` that prediction is
+   returned; otherwise the classical solver runs, and the record lists both attempts.
 
 The classical solver (:func:`~nh_operators.solve_classical`) doubles RK4 substeps until
 its own estimate is met; it computes exactly the requested times.
@@ -35,7 +37,8 @@ import numpy as np
 from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import CALIBRATION, WEIGHTS, available_pretrained, network_domain, resolve_pretrained
-from .estimate import acceptance_rate, calibrated, estimate_at, sensor_force
+from .estimate import (acceptance_rate, calibrated, cautious_acceptance_rate, estimate_at,
+                       sensor_force)
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
 
@@ -183,7 +186,9 @@ def _ranked(tol, kind, calibrations, batched=False):
         if cal is None:
             notes.append(f"{name}: not calibrated")
             continue
-        share = acceptance_rate(cal, tol)
+        # one call counts on the share it would get from either generator; a batch
+        # learns the share on its own rows from a pilot (solve_many)
+        share = acceptance_rate(cal, tol) if batched else cautious_acceptance_rate(cal, tol)
         t_cls = _classical_seconds(cal, tol, kind, batched)
         expected = _neural_seconds(cal, batched) + (1.0 - share) * t_cls
         if expected >= t_cls:
@@ -200,29 +205,28 @@ def _networks():
 
 
 def _choose(tol, values, t, kind):
-    """The networks to try in turn (cheapest first), possibly none, with the reason in
-    words: the candidates whose domain
-    (:func:`~nh_operators.solving.catalog.network_domain`) holds the input. Each is
-    expected to save time on its own (its share P of accepted answers times the classical
-    cost exceeds its cost), so one whose estimate fails does not stop the next: an input
-    of one generator can lie in the domain of a network trained on the other, which
-    rejects it, while its own network accepts it. ``values()`` gives the sensor values;
-    the costs are weighed first, as they need no evaluation of V."""
+    """The network to try, or None, with the reason in words: the cheapest candidate
+    whose domain (:func:`~nh_operators.solving.catalog.network_domain`) holds the input.
+    One call tries one network: its share P was measured on its own distribution, and an
+    input that it rejects tells nothing a next one could bet on (``solve_many``, which
+    learns each network's share on its rows from a pilot, goes on to the next).
+    ``values()`` gives the sensor values; the costs are weighed first, as they need no
+    evaluation of V."""
     from ..potentials import domain_violations, in_domain
 
     candidates, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()))
     if not candidates:
-        return [], "no network expected to be cheaper (" + "; ".join(notes) + ")"
+        return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
-        return [], "times outside [0, 2], where the networks were trained"
+        return None, "times outside [0, 2], where the networks were trained"
     V = values()
-    names = [(name, share) for name, _, share in candidates
-             if in_domain(V, network_domain(name))]
-    if names:
-        return names, ""
+    for name, _, share in candidates:
+        if in_domain(V, network_domain(name)):
+            return name, (f"{name} expected cheapest on its domain: its estimate met tol "
+                          f"on {share:.0%} of its calibration set")
     first = candidates[0][0]
-    return [], (f"outside the domain of every network expected to be cheaper, e.g. "
-                f"{first}'s: {domain_violations(V, network_domain(first))[0]}")
+    return None, (f"outside the domain of every network expected to be cheaper, e.g. "
+                  f"{first}'s: {domain_violations(V, network_domain(first))[0]}")
 
 
 def solve(potential, t, *, tol=None, method="auto", dV=None, q0=0.0, p0=0.0):
@@ -330,25 +334,18 @@ def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
         reason = ("a state other than (0, 0): the networks were trained from rest at q = 0, "
                   "so the classical solver")
     elif method == "auto" and tol is not None:
-        names, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
-                                _input_kind(pot, information))
-        rejected = []
-        for name, share in names:
+        name, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
+                               _input_kind(pot, information))
+        if name is not None:
             t0 = time.perf_counter()
             q, p, estimate = neural_solve(name, pot, information, t)
             accepted = estimate <= tol
             tried.append({"method": name, "error_estimate": estimate, "accepted": accepted,
                           "seconds": time.perf_counter() - t0})
             if accepted:
-                reason = (f"{name} expected cheapest on its domain: its estimate met tol on "
-                          f"{share:.0%} of its calibration set")
-                if rejected:
-                    reason += " (" + "; ".join(rejected) + " before it)"
                 return Solution(q, p, name, "neural", estimate, time.perf_counter() - start,
                                 tol, reason, tried)
-            rejected.append(f"{name}'s estimate {estimate:.2g} > tol {tol:g}")
-        if rejected:
-            reason = "; ".join(rejected) + "; classical instead"
+            reason = f"{name}'s estimate {estimate:.2g} > tol {tol:g}; classical instead"
     elif method == "auto":
         reason = f"no tol: the classical solver at {DEFAULT_TOL:g}"
     else:

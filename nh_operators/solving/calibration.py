@@ -248,6 +248,10 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     true, raw, _ = fams["in distribution"]
     estimate = calibrated(raw, result)
     probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
+    for fam, (f_true, f_raw, _) in fams.items():  # how often each family is accepted
+        if f_true.size:
+            result["families"][fam]["estimate_quantiles"] = [
+                float(v) for v in np.quantile(calibrated(f_raw, result), probabilities)]
     result.update(n=int(true.size), probabilities=probabilities,
                   estimate_quantiles=[float(v) for v in np.quantile(estimate, probabilities)],
                   L_quantiles=[float(v) for v in np.quantile(true, probabilities)],

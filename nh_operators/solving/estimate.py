@@ -127,14 +127,30 @@ def raw_estimate(q, p, V_rows, dV_rows, t=TIMES):
     return estimate_at(q, p, V_rows, dV_rows, t, t)[2]
 
 
+@functools.lru_cache(maxsize=8)
+def _basis(t_bytes):
+    """Piecewise coefficients (scipy's PPoly layout, highest power first) of the
+    not-a-knot splines through the unit vectors on the grid, and of their integrals."""
+    t = np.frombuffer(t_bytes, dtype=np.float64)
+    spline = CubicSpline(t, np.eye(t.size), axis=0)
+    return t, spline.c, spline.antiderivative().c
+
+
 @functools.lru_cache(maxsize=64)
 def _at_matrices(t_bytes, at_bytes):
     """(B, A): B y = the not-a-knot spline through (t, y) at the times ``at``, A y = its
-    integral from 0 to each of them."""
-    t = np.frombuffer(t_bytes, dtype=np.float64)
+    integral from 0 to each of them (Horner on the cached basis: a new set of times
+    costs tens of µs, not a spline construction)."""
+    t, c, c_int = _basis(t_bytes)
     at = np.frombuffer(at_bytes, dtype=np.float64)
-    spline = CubicSpline(t, np.eye(t.size), axis=0)
-    return spline(at), spline.antiderivative()(at)
+    piece = np.clip(np.searchsorted(t, at, side="right") - 1, 0, t.size - 2)
+    dx = (at - t[piece])[:, None]
+    values, integrals = c[0, piece], c_int[0, piece]
+    for k in range(1, c.shape[0]):
+        values = values * dx + c[k, piece]
+    for k in range(1, c_int.shape[0]):
+        integrals = integrals * dx + c_int[k, piece]
+    return values, integrals
 
 
 def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
@@ -339,9 +355,23 @@ def calibrated(raw, calibration):
     return factors[np.searchsorted(limits, raw, side="left")] * raw
 
 
-def acceptance_rate(calibration, tol):
-    """Fraction of the calibration set whose calibrated estimate is ≤ tol
-    (interpolated between the stored quantiles in log scale)."""
-    est = np.log(np.maximum(calibration["estimate_quantiles"], 1e-300))
+def acceptance_rate(calibration, tol, family=None):
+    """Fraction of the calibration set (its in-distribution family, or ``family``)
+    whose calibrated estimate is ≤ tol (interpolated between the stored quantiles in log
+    scale)."""
+    quantiles = (calibration["estimate_quantiles"] if family is None else
+                 calibration["families"][family]["estimate_quantiles"])
+    est = np.log(np.maximum(quantiles, 1e-300))
     return float(np.interp(np.log(tol), est, calibration["probabilities"], left=0.0,
                            right=1.0))
+
+
+def cautious_acceptance_rate(calibration, tol):
+    """The smaller of :func:`acceptance_rate` on the network's own distribution and on
+    the other generator's potentials its domain admits (where calibrated): what a single
+    call, which cannot tell which generator its input came from, may count on."""
+    shares = [acceptance_rate(calibration, tol)]
+    other = calibration.get("families", {}).get("other distribution", {})
+    if "estimate_quantiles" in other:
+        shares.append(acceptance_rate(calibration, tol, "other distribution"))
+    return min(shares)

@@ -48,6 +48,17 @@ def test_integration_matrix_is_exact_for_cubics():
     np.testing.assert_allclose(A @ y, t - t**2 + t**3 - t**4 / 8, atol=1e-13)
 
 
+def test_at_matrices_are_scipys_spline_and_its_integral_at_any_times():
+    from nh_operators.solving.estimate import _at_matrices
+
+    t = nh.TIMES
+    at = np.concatenate([[0.0, 2.0, t[5], t[98]], np.random.default_rng(1).uniform(0, 2, 40)])
+    B, A = _at_matrices(t.tobytes(), at.tobytes())
+    spline = CubicSpline(t, np.eye(t.size), axis=0)
+    np.testing.assert_allclose(B, spline(at), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(A, spline.antiderivative()(at), rtol=0, atol=1e-14)
+
+
 def test_spline_rows_match_scipy_values_and_slopes(pots):
     V = pots.V(nh.SENSORS)[:3]
     params = sensor_spline_params(V)

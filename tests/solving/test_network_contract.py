@@ -62,6 +62,10 @@ def _patch(monkeypatch, factor_scale=1.0):
         cal["factor"] *= factor_scale
         cal["factors"] = [factor_scale * f for f in cal["factors"]]
         cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]
+        cal["families"] = {fam: dict(f, estimate_quantiles=[factor_scale * v for v in
+                                                             f["estimate_quantiles"]])
+                           if "estimate_quantiles" in f else f
+                           for fam, f in cal["families"].items()}
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
 
