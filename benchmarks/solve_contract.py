@@ -60,7 +60,7 @@ def main():
     ap.add_argument("--test", default="test.h5", help="the test set (generate --preset test)")
     ap.add_argument("--n-test", type=int, default=1000)
     ap.add_argument("--n-ood", type=int, default=200)
-    ap.add_argument("--tols", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8])
+    ap.add_argument("--tols", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 1e-6, 1e-8])
     ap.add_argument("--estimate-tols", type=float, nargs="+",
                     default=[3e-1, 1e-1, 3e-2, 1e-2, 1e-3, 1e-4])
     ap.add_argument("--seed", type=int, default=0)

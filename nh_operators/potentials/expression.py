@@ -38,6 +38,18 @@ FUNCTIONS = {
         "sub", ("const", 1.0), ("pow", a, ("const", 2.0))))))),
 }
 CONSTANTS = {"pi": math.pi, "e": math.e}
+
+#: Functions whose derivative jumps or vanishes on a set: a potential using them is not C².
+NON_SMOOTH = frozenset({"abs", "sign"})
+
+
+def _uses(tree, names):
+    """Whether the tree calls any function in ``names``."""
+    if not isinstance(tree, tuple):
+        return False
+    if tree[0] == "call" and tree[1] in names:
+        return True
+    return any(_uses(part, names) for part in tree[1:])
 _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
 
@@ -176,11 +188,15 @@ class Expression:
     Attributes:
         text: the text as given.
         derivative_text: dV/dq, written out.
+        smooth: False where the text uses ``abs`` or ``sign`` (a kink or a jump: the
+            classical solver's step-doubling estimate then gets no credit for the
+            method's order).
     """
 
     def __init__(self, text, tree):
         self.text = text
         self._tree = tree
+        self.smooth = not _uses(tree, NON_SMOOTH)
         self._dtree = _simplify(_derivative(tree))
         self.derivative_text = _format(self._dtree)
 
@@ -257,4 +273,4 @@ def parse_potential(text, *, name=None):
 
     expr = parse_expression(text)
     check_bounded(expr, name=f"V = {text}: V")
-    return AnalyticPotential(name or text, text, expr, expr.derivative)
+    return AnalyticPotential(name or text, text, expr, expr.derivative, smooth=expr.smooth)

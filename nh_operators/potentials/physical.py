@@ -22,6 +22,8 @@ class AnalyticPotential:
         exact: optional callable t -> (q, p), the exact trajectory from rest at q = 0.
         exact_from_state: optional callable (t, q0, p0) -> (q, p), the exact trajectory
             from any state.
+        smooth: whether V is C² (False for a kink such as the MFF's |q − 1/2|: the
+            classical solver then credits no convergence order to its error estimate).
 
     Example:
         >>> sho = PHYSICAL_POTENTIALS["sho"]
@@ -30,8 +32,9 @@ class AnalyticPotential:
         (0.0, 0.0)
     """
 
-    def __init__(self, name, formula, V, dV, exact=None, exact_from_state=None):
+    def __init__(self, name, formula, V, dV, exact=None, exact_from_state=None, smooth=True):
         self.name = name
+        self.smooth = bool(smooth)
         self.formula = formula
         self._V = V
         self._dV = dV
@@ -161,7 +164,7 @@ PHYSICAL_POTENTIALS = {
     "morse": AnalyticPotential("morse", "D_e (1 - exp(-a (q - 1/3)))^2", _morse_V, _morse_dV),
     "mff": AnalyticPotential(
         "mff", "4 |q - 1/2|", lambda q: 4 * np.abs(q - 0.5), lambda q: 4 * np.sign(q - 0.5),
-        _mff_exact, _mff_from_state,
+        _mff_exact, _mff_from_state, smooth=False,
     ),
     "smff": smff(SMFF_ALPHA),
 }

@@ -60,3 +60,21 @@ def test_every_classical_answer_meets_tol_on_unseen_inputs():
                 assert np.all(sol.error_estimate <= tol)
                 answers += true.size
     assert answers == 3 * 3 * 4 * 24
+
+
+@pytest.mark.parametrize("pot", ["mff", "4*abs(q - 0.5)"])
+def test_a_kink_gets_no_credit_for_the_methods_order(pot):
+    """The horizon benchmark, checked against the MFF's exact solution, found 2.1x tol at
+    tol 1e-6 from (0.47, 1.43): across the kink at q = 1/2 the level errors jump about
+    (gaps 1.4e-7, 8.2e-6, 2.3e-6 at 256, 512, 1024 substeps), so a gap that was small by
+    chance, with the one before shrunk by RK4's 256, was taken for evidence. A potential
+    marked not C² (the MFF, a formula with abs or sign) now needs both gaps, times 10,
+    within tol."""
+    mff = nh.PHYSICAL_POTENTIALS["mff"]
+    assert not mff.smooth and not nh.parse_potential("4*abs(q - 0.5)").smooth
+    assert nh.PHYSICAL_POTENTIALS["smff"].smooth and nh.parse_potential("8*(q-0.5)**2").smooth
+    t = np.linspace(0.0, 2.0, 20)
+    q0, p0 = 0.47373500312868166, 1.4260477172851753
+    for tol in (1e-4, 1e-6):
+        sol = nh.solve(pot, t, tol=tol, q0=q0, p0=p0)
+        assert true_loss(sol.q, sol.p, *mff.exact(t, q0, p0)) <= tol
