@@ -22,7 +22,7 @@ class AnalyticPotential:
         exact: optional callable t -> (q, p), the exact trajectory from rest at q = 0.
         exact_from_state: optional callable (t, q0, p0) -> (q, p), the exact trajectory
             from any state.
-        smooth: whether V is C² (False for a kink such as the MFF's |q − 1/2|: the
+        smooth: whether V is C² (False for a kink such as the MFF's absolute value: the
             classical solver then credits no convergence order to its error estimate).
 
     Example:
