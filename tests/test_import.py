@@ -88,3 +88,15 @@ def test_lazy_names_are_the_wings_objects_and_listed():
     assert "solve_many" in dir(nh_operators) and "integrate" in dir(solvers)
     with pytest.raises(AttributeError, match="has no attribute 'nope'"):
         nh_operators.nope
+
+
+def test_a_classical_predict_loads_no_torch(tmp_path):
+    """``nh-operators predict`` with a formula answers classically: its method tables
+    imported the network wrapper (and torch, about 3.5 s of a 6 s process) at module
+    level; now only a neural method imports it."""
+    code = ("import sys\nfrom nh_operators.cli import main\n"
+            "main(['predict', '--potential', '8*(q-0.5)**2', '--times', '0.5', '--tol', "
+            "'1e-6'])\nprint(sorted(m for m in ('torch', 'deepxde') if m in sys.modules))")
+    res = _run(code, tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "[]"

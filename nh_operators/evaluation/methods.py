@@ -15,7 +15,6 @@ from scipy.interpolate import CubicSpline
 
 from .._constants import SENSORS, TIMES
 from .._sensors import sensor_values
-from ..models import as_network
 from ..solvers import integrate_sensors, paper_rk4
 
 __all__ = ["Method", "ClassicalMethod", "NeuralMethod", "CLASSICAL_METHODS",
@@ -110,6 +109,8 @@ class NeuralMethod(Method):
     kind = "neural"
 
     def __init__(self, net, name=None, *, batch_size=1000, domain_check=True, domain=None):
+        from ..models import as_network  # here: the classical methods need no torch
+
         name = name or getattr(net, "name", None)
         net = as_network(net)  # a network, or another method holding one
         self.net = net
