@@ -207,9 +207,10 @@ def _networks():
 def _choose(tol, values, t, kind):
     """The network to try, or None, with the reason in words: the cheapest candidate
     whose domain (:func:`~nh_operators.solving.catalog.network_domain`) holds the input.
-    One call tries one network: its share P was measured on its own distribution, and an
-    input that it rejects tells nothing a next one could bet on (``solve_many``, which
-    learns each network's share on its rows from a pilot, goes on to the next).
+    One call tries one network: going on to the next after a rejection cost more than it
+    saved on ``alg1-test`` at tol 1e-4 (an input one network rejects is often rejected
+    again, and a single call has no pilot to tell); ``solve_many``, which learns each
+    network's share on its rows from a pilot, goes on to the next.
     ``values()`` gives the sensor values; the costs are weighed first, as they need no
     evaluation of V."""
     from ..potentials import domain_violations, in_domain

@@ -27,8 +27,8 @@ from ..potentials import BoundedPotential, check_bounded, in_domain
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
-from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _model, _ranked,
-                         _solve)
+from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _classical_seconds, _model,
+                         _neural_seconds, _ranked, _solve)
 from .catalog import network_domain
 from .estimate import calibrated, estimate_at, sensor_force
 
@@ -54,8 +54,6 @@ def _record(tried, name, rows, accepted):
 def _worth_it(name, share, tol, kind):
     """Whether accepting ``share`` of the rows pays for a network's batched cost: share ·
     T_classical > T_network, both per row as measured at calibration."""
-    from .auto_solve import _classical_seconds, _neural_seconds
-
     cal = _calibration(name)
     return share * _classical_seconds(cal, tol, kind, True) > _neural_seconds(cal, True)
 
