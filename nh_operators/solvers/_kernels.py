@@ -280,15 +280,30 @@ def _curve_point(par, lam):
 
 
 @numba.njit(**_JIT)
-def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov):
-    """Adaptive DP5(4) solve of one B-spline potential, landing exactly on each tq.
+def _curve_parameter(par, q):
+    """The λ with q(λ) = q on a curve whose q(λ) increases, by bisection to rounding."""
+    lo, hi = 0.0, 1.0
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            return lo if q - _curve_point(par, lo)[0] <= _curve_point(par, hi)[0] - q else hi
+        if _curve_point(par, mid)[0] < q:
+            lo = mid
+        else:
+            hi = mid
+
+
+@numba.njit(**_JIT)
+def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov, lam0, p0):
+    """Adaptive DP5(4) solve of one B-spline potential from (λ0, p0), landing exactly on
+    each tq.
 
     Returns the number of accepted steps, or -1 if ``max_steps`` was exhausted.
     """
     kl = np.empty(7)
     kp = np.empty(7)
-    lam = 0.0
-    p = 0.0
+    lam = lam0
+    p = p0
     t = 0.0
     h = 1e-3
     steps = 0
@@ -336,9 +351,19 @@ def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov):
 
 
 @numba.njit(parallel=True, **_JIT)
-def batch_dp5(pars, tq, rtol, atol, max_steps, oq, op, ov, steps):
+def batch_dp5(pars, tq, rtol, atol, max_steps, oq, op, ov, steps, lam0s, p0s):
+    """Row i from the curve parameter lam0s[i] with momentum p0s[i]."""
     for i in numba.prange(pars.shape[0]):
-        steps[i] = _trajectory_dp5(pars[i], tq, rtol, atol, max_steps, oq[i], op[i], ov[i])
+        steps[i] = _trajectory_dp5(pars[i], tq, rtol, atol, max_steps, oq[i], op[i], ov[i],
+                                   lam0s[i], p0s[i])
+
+
+@numba.njit(parallel=True, **_JIT)
+def curve_starts(pars, q0s, lam0s, v0s):
+    """The curve parameter λ0 of q0s[i] on row i's curve, and V there."""
+    for i in numba.prange(pars.shape[0]):
+        lam0s[i] = 0.0 if q0s[i] <= 0.0 else _curve_parameter(pars[i], q0s[i])
+        v0s[i] = _curve_point(pars[i], lam0s[i])[1]
 
 
 # ------------------------------------------------- not-a-knot spline of the sensors

@@ -3,16 +3,17 @@
 import numpy as np
 from scipy import integrate as sp_integrate
 
-from .._constants import TIMES, V0
+from .._constants import TIMES
 from ..potentials.bounded import BoundedPotential
 from . import _kernels
 from .schemes import _check_times
+from .states import check_states, state_arrays
 
 __all__ = ["reference_solve"]
 
 
-def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=False,
-                    max_steps=10_000_000):
+def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-15,
+                    full_output=False, max_steps=10_000_000):
     """High-accuracy solve used for truth.
 
     For a :class:`BoundedPotential` the equations are solved in the curve parameter λ of
@@ -25,33 +26,53 @@ def reference_solve(potential, t=TIMES, *, rtol=1e-15, atol=1e-15, full_output=F
         potential: a :class:`BoundedPotential` (single or batch) or an object with
             ``dV``.
         t: query times, shape (M,).
+        q0, p0: the starting state, scalars or one per potential of a batch (default: the
+            paper's (0, 0)); its energy must be at most V0 (see
+            :func:`~nh_operators.solvers.check_states`). On a B-spline curve the start's
+            curve parameter is found by bisection of q(λ) to rounding.
         rtol, atol: local error tolerances of the adaptive method (B-spline potentials).
         full_output: also return a dict with ``"energy_error"`` (max over t of
-            ``|p²/2 + V(q) - V0|``, per potential) and ``"steps"`` (accepted steps, -1 if
+            ``|p²/2 + V(q) - E|``, per potential, E the starting energy) and ``"steps"`` (accepted steps, -1 if
             ``max_steps`` was exhausted; for scipy's DOP853, its function evaluations).
         max_steps: step budget per potential.
 
-    Returns:
-        (q, p), or (q, p, info) with ``full_output``; shapes as in :func:`integrate`.
+    Raises:
+        ValueError: bad times, or a state outside [0, 1] or above V0.
+        TypeError: a potential that is neither.
+
+    Example:
+        >>> from nh_operators.potentials import AnalyticPotential
+        >>> sho = AnalyticPotential("sho", lambda q: 8 * (q - 0.5) ** 2,
+        ...                         lambda q: 16 * (q - 0.5))
+        >>> q, p = reference_solve(sho, [0.25], q0=0.5, p0=1.0)  # q = 1/2 + sin(4t)/4
+        >>> round(float(q[0]), 10), round(float(0.5 + np.sin(1.0) / 4), 10)
+        (0.7103677462, 0.7103677462)
     """
     t = _check_times(t)
     order = np.argsort(t, kind="stable")
     ts = np.ascontiguousarray(t[order])
     if isinstance(potential, BoundedPotential):
         n = potential.params.shape[0]
+        q0s, p0s = state_arrays(q0, p0, n)
+        lam0s, v0s = np.empty(n), np.empty(n)
+        _kernels.curve_starts(potential.params, q0s, lam0s, v0s)
+        start = check_states(q0s, p0s, lambda _: v0s, potential.batched)
         oq, op, ov = (np.empty((n, ts.size)) for _ in range(3))
         steps = np.empty(n, dtype=np.int64)
-        _kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps)
-        energy = np.max(np.abs(ov - V0), axis=1)
+        _kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps,
+                           lam0s, p0s)
+        energy = np.max(np.abs(ov - start[:, None]), axis=1)
     elif hasattr(potential, "dV"):
+        q0s, p0s = state_arrays(q0, p0, 1)
+        start = check_states(q0s, p0s, lambda x: potential.V(x))
         sol = sp_integrate.solve_ivp(
             lambda _, y: (y[1], -float(potential.dV(y[0]))), (0.0, max(ts[-1], 1e-300)),
-            (0.0, 0.0), method="DOP853", t_eval=ts, rtol=1e-13, atol=1e-13,
+            (q0s[0], p0s[0]), method="DOP853", t_eval=ts, rtol=1e-13, atol=1e-13,
         )
         if not sol.success:
             raise RuntimeError(f"reference solve failed: {sol.message}")
         oq, op = sol.y[0][None, :], sol.y[1][None, :]
-        energy = np.max(np.abs(0.5 * op**2 + potential.V(oq) - V0), axis=1)
+        energy = np.max(np.abs(0.5 * op**2 + potential.V(oq) - start[0]), axis=1)
         steps = np.array([sol.nfev])
     else:
         raise TypeError("potential must be a BoundedPotential or have a dV(q) method")
