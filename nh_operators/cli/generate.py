@@ -17,6 +17,10 @@ PRESETS = {
     "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
                    "skip": 1_000},
 }
+for _name in ("alg1-standard", "alg1-test", "paper-standard", "paper-test"):
+    # the same potentials, each from its own bounded state stratified by energy
+    _family, _split = _name.split("-")
+    PRESETS[f"{_family}-states-{_split}"] = {**PRESETS[_name], "states": "energy"}
 PRESETS["standard"] = PRESETS["alg1-standard"]
 PRESETS["extended"] = PRESETS["alg1-extended"]
 PRESETS["test"] = PRESETS["alg1-test"]
@@ -56,6 +60,17 @@ def _generate(args):
         options["normalization"] = args.normalization
         if args.normalization == "potential":
             options.pop("pool", None)
+    if args.states is not None:
+        if args.preset and args.states != options.get("states", "rest"):
+            print(f"note: --states {args.states} overrides the {args.preset} preset's",
+                  file=sys.stderr)
+        options["states"] = args.states
+    if options.get("states") == "rest":
+        options.pop("states")
+    if args.separatrix_share is not None:
+        if options.get("states") != "energy":
+            raise ValueError("--separatrix-share needs --states energy (or a -states- preset)")
+        options["separatrix_share"] = args.separatrix_share
     args.output = out  # for the message if interrupted
     check_output_path(out, force=args.force)  # before any work
     start = time.perf_counter()
@@ -87,7 +102,9 @@ def register(sub):
                     "--seed and --out. Presets alg1-standard, alg1-extended, alg1-test (also "
                     "called standard, extended, test) follow Algorithm 1 as printed; "
                     "paper-standard, paper-extended, paper-test follow the reference code "
-                    "that made the paper's tables (--normalization batch). An interrupted "
+                    "that made the paper's tables (--normalization batch); the -states- "
+                    "presets hold the same potentials, each started from its own bounded "
+                    "state stratified by energy (--states energy). An interrupted "
                     "run resumes when run again; a finished file is replaced only with --force.")
     gen.add_argument("--preset", choices=list(PRESETS),
                      help="a named dataset of the paper (then --size/--seed override it)")
@@ -100,6 +117,12 @@ def register(sub):
     gen.add_argument("--normalization", choices=["potential", "batch"],
                      help="potential: Algorithm 1 as printed (default); batch: the reference "
                           "code, 1.25 n candidates normalised together")
+    gen.add_argument("--states", choices=["rest", "energy"],
+                     help="rest: the paper's start at rest at q = 0 (default); energy: a "
+                          "bounded starting state per potential, stratified by energy")
+    gen.add_argument("--separatrix-share", type=float, metavar="SHARE",
+                     help="with --states energy: the share of states drawn near a "
+                          "separatrix (default 0.25)")
     gen.add_argument("--chunk", type=positive_int, default=2000,
                      help="potentials per labelled chunk (default 2000)")
     gen.add_argument("--force", action="store_true", help="replace a finished file at --out")

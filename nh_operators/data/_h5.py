@@ -23,15 +23,26 @@ ROWS = {
     "control_V": ((9,), np.float64),
     "length_scale": ((), np.float64),
 }
+#: Per-sample arrays of a dataset with starting states (attribute ``states``).
+STATE_ROWS = {
+    "q0": ((), np.float64),
+    "p0": ((), np.float64),
+    "near_separatrix": ((), np.int8),
+}
 FIXED = ("x", "t")
-_JSON_ATTRS = ("generator", "dropped")
+_JSON_ATTRS = ("generator", "dropped", "states")
+
+
+def _rows(states):
+    """The per-sample arrays of a file: with ``states`` (its attribute), the states too."""
+    return {**ROWS, **STATE_ROWS} if states else ROWS
 _BLOCK = 65536
 
 
 def checksum(h5file):
     """SHA-256 over every array's name, shape, dtype and bytes, read in blocks."""
     digest = hashlib.sha256()
-    for name in FIXED + tuple(ROWS):
+    for name in FIXED + tuple(_rows("states" in h5file.attrs)):
         data = h5file[name]
         digest.update(f"{name}{data.shape}{data.dtype.str}".encode())
         if data.ndim == 1 and name in FIXED:
@@ -68,7 +79,7 @@ def _matches(f, attrs):
 def _chunk_digest(f, start, end):
     """SHA-256 of rows [start, end) of every per-sample array (what a resume keeps)."""
     digest = hashlib.sha256()
-    for name in ROWS:
+    for name in _rows("states" in f.attrs):
         digest.update(np.ascontiguousarray(f[name][start:end]).tobytes())
     return digest.hexdigest()
 
@@ -124,7 +135,7 @@ def _write_locked(path, partial, n, attrs, source, chunk, progress, resume):
     if mode == "w":
         source.set_state(start_state)
         with h5py.File(partial, "w") as f:
-            for name, (shape, dtype) in ROWS.items():
+            for name, (shape, dtype) in _rows(attrs.get("states")).items():
                 f.create_dataset(name, shape=(n,) + shape, dtype=dtype, track_times=False,
                                  chunks=(min(n, 4096),) + shape)
             f.create_dataset("x", data=np.array(SENSORS), track_times=False)
@@ -136,7 +147,7 @@ def _write_locked(path, partial, n, attrs, source, chunk, progress, resume):
         while done < n:
             m = min(chunk, n - done)
             arrays, drops = source.take(m, drops)
-            for name in ROWS:
+            for name in _rows(attrs.get("states")):
                 f[name][done : done + m] = arrays[name]
             chunks.append({"end": done + m, "sha256": _chunk_digest(f, done, done + m),
                            "dropped": dict(drops), "state": source.state()})
@@ -205,7 +216,8 @@ def read_dataset(path, *, verify=True):
     path = os.fspath(path)
     with open_h5(path) as f:
         attrs = _get_attrs(f)
-        missing = [k for k in FIXED + tuple(ROWS) if k not in f]
+        names = FIXED + tuple(_rows(attrs.get("states")))
+        missing = [k for k in names if k not in f]
         if missing:
             raise ValueError(f"{path!r} lacks the arrays {missing}")
         if verify:
@@ -215,5 +227,5 @@ def read_dataset(path, *, verify=True):
                     f"checksum mismatch in {path!r}: stored {attrs.get('checksum')}, computed "
                     f"{actual}; the file is corrupted or was modified"
                 )
-        arrays = {k: f[k][()] for k in FIXED + tuple(ROWS)}
+        arrays = {k: f[k][()] for k in names}
     return arrays, attrs

@@ -12,8 +12,8 @@ import numpy as np
 from .._constants import SENSORS, TIMES, V0
 from .._version import __version__
 from ..potentials import BoundedPotential, BoundedPotentialSpace
-from ..solvers import reference_solve
 from ._h5 import read_dataset, write_streamed
+from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, _Source, label_potentials
 
 __all__ = ["PRESETS", "preset_kwargs", "Dataset", "generate_dataset", "label_potentials", "load_dataset",
            "check_output_path"]
@@ -33,6 +33,10 @@ PRESETS = {
     "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
                    "skip": 1_000},
 }
+for _name in ("alg1-standard", "alg1-test", "paper-standard", "paper-test"):
+    # the same potentials, each from its own bounded state stratified by energy
+    _family, _split = _name.split("-")
+    PRESETS[f"{_family}-states-{_split}"] = {**PRESETS[_name], "states": "energy"}
 PRESETS["standard"] = PRESETS["alg1-standard"]  # the names of earlier releases
 PRESETS["extended"] = PRESETS["alg1-extended"]
 PRESETS["test"] = PRESETS["alg1-test"]
@@ -49,42 +53,6 @@ def preset_kwargs(name):
         raise ValueError(f"unknown preset {name!r}; choose from {sorted(PRESETS)}")
     return {k: v for k, v in PRESETS[name].items() if k not in ("size", "seed")}
 
-#: Label tolerances: reference solve, energy drift and excursion beyond [0, 1] allowed.
-LABEL_RTOL = 1e-15
-ENERGY_TOL = 1e-10
-BOUNDS_TOL = 1e-9
-
-
-def label_potentials(potentials, t=TIMES, *, rtol=LABEL_RTOL, energy_tol=ENERGY_TOL):
-    """Exact labels of a batch of potentials, with the reason each invalid one fails.
-
-    Args:
-        potentials: a batched :class:`BoundedPotential` of N potentials.
-        t: query times, shape (M,).
-        rtol: tolerance of the reference solve (also its atol).
-        energy_tol: largest ``|p²/2 + V(q) - V0|`` accepted.
-
-    Returns:
-        (q, p, reasons): q and p of shape (N, M); reasons a list of N strings, empty for
-        a valid sample, else one of "non-finite", "left [0, 1]", "energy drift",
-        "step budget".
-    """
-    q, p, info = reference_solve(potentials, t, rtol=rtol, atol=rtol, full_output=True)
-    reasons = []
-    for qi, pi, energy, steps in zip(q, p, info["energy_error"], info["steps"]):
-        if steps < 0:
-            reasons.append("step budget")
-        elif not (np.all(np.isfinite(qi)) and np.all(np.isfinite(pi))):
-            reasons.append("non-finite")
-        elif qi.min() < -BOUNDS_TOL or qi.max() > 1 + BOUNDS_TOL:
-            reasons.append("left [0, 1]")
-        elif not energy <= energy_tol:
-            reasons.append("energy drift")
-        else:
-            reasons.append("")
-    return q, p, reasons
-
-
 class Dataset:
     """Potentials at the sensors, exact labels, and what rebuilds each true potential.
 
@@ -96,6 +64,8 @@ class Dataset:
         n_grf: (N,) number of interior control points.
         control_q, control_V: (N, 9) control points with the ends, NaN-padded.
         length_scale: (N,) GRF length scale of each draw.
+        q0, p0: (N,) starting states, or None for the paper's rest at q = 0.
+        near_separatrix: (N,) 1 where the state was drawn near a separatrix, or None.
         attrs: dict of metadata (generator parameters, seed, version, checksum, drops).
     """
 
@@ -109,6 +79,9 @@ class Dataset:
         self.control_q = arrays["control_q"]
         self.control_V = arrays["control_V"]
         self.length_scale = arrays["length_scale"]
+        self.q0 = arrays.get("q0")
+        self.p0 = arrays.get("p0")
+        self.near_separatrix = arrays.get("near_separatrix")
         self.attrs = dict(attrs)
 
     def __len__(self):
@@ -157,8 +130,8 @@ class Dataset:
     def to_deepxde(self, train_fraction=0.8, seed=None, dtype=np.float32, **kwargs):
         """DeepXDE training data of this dataset: an :class:`~nh_operators.OperatorData`.
 
-        Branch input V (N, 100), trunk input t as (100, 1), targets stack(q, p) of shape
-        (N, 100, 2); the validation part is DeepXDE's "test" set. ``OperatorData`` is a
+        Branch input V (N, 100) (with states: V, q0, p0 side by side, (N, 102)), trunk
+        input t as (100, 1), targets stack(q, p) of shape (N, 100, 2); the validation part is DeepXDE's "test" set. ``OperatorData`` is a
         ``deepxde.data.TripleCartesianProd`` with reproducible batches, an optional
         KL term and batched validation.
 
@@ -177,15 +150,21 @@ class Dataset:
         train, val = self.split_indices(train_fraction, seed)
         y = np.stack([self.q, self.p], axis=-1).astype(dtype)
         trunk = self.t[:, None].astype(dtype)
-        return OperatorData(
-            (self.V[train].astype(dtype), trunk), y[train],
-            (self.V[val].astype(dtype), trunk), y[val], **kwargs,
-        )
+        branch = self.branch_input().astype(dtype)
+        return OperatorData((branch[train], trunk), y[train], (branch[val], trunk), y[val],
+                            **kwargs)
+
+    def branch_input(self):
+        """What a network sees of each sample: V (N, 100), or with states V, q0 and p0
+        side by side (N, 102)."""
+        if self.q0 is None:
+            return self.V
+        return np.concatenate([self.V, self.q0[:, None], self.p0[:, None]], axis=1)
 
 
 def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=True,
                      force=False, skip=0, rtol=LABEL_RTOL, energy_tol=ENERGY_TOL,
-                     **space_kwargs):
+                     states=None, separatrix_share=0.25, **space_kwargs):
     """Generate n potentials with exact labels on :data:`SENSORS` / :data:`TIMES`.
 
     Potentials are drawn one after another from ``BoundedPotentialSpace(seed,
@@ -212,6 +191,13 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
         energy_tol: largest accepted energy error.
         skip: valid samples drawn and discarded before the n kept (the paper's test set
             is the last 4,000 of 5,000: ``skip=1000``).
+        states: ``None`` (the paper's start at rest at q = 0) or ``"energy"``: each
+            potential gets its own bounded starting state (q0, p0), stratified by
+            energy (:func:`~nh_operators.solvers.energy_states`), stored as ``q0``,
+            ``p0`` and ``near_separatrix``; the labels start there. The attribute
+            ``states`` records the distribution.
+        separatrix_share: with ``states="energy"``, the share of draws placed near a
+            separatrix (where V has an interior maximum).
         **space_kwargs: generator parameters (``n_grf``, ``length_scale``, ``omega``,
             ``normalization`` (``"batch"``: the reference code's distribution; its
             ``pool`` defaults to 1.25 (n + skip) candidates, as the code draws),
@@ -259,7 +245,13 @@ def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=Tr
     }
     if skip:
         attrs["skip"] = skip
-    source = _Source(space, rtol, energy_tol, skip)
+    stream = None
+    if states is not None:
+        if states != "energy":
+            raise ValueError(f"states must be None or 'energy', got {states!r}")
+        stream = StateStream(seed, separatrix_share)
+        attrs["states"] = stream.params()
+    source = _Source(space, rtol, energy_tol, skip, stream)
     if path is None:
         arrays, drops = source.take(n)
         attrs["dropped"] = drops
@@ -294,61 +286,6 @@ def check_output_path(path, *, force=False):
     if os.path.exists(path) and not force:
         raise FileExistsError(f"{path!r} already exists; pass force=True (--force) to "
                               "replace it")
-
-
-class _Source:
-    """Draws, labels and filters potentials; remembers how many were dropped and why."""
-
-    def __init__(self, space, rtol, energy_tol, skip=0):
-        self.space = space
-        self.rtol = rtol
-        self.energy_tol = energy_tol
-        self.skip_left = skip
-
-    def state(self):
-        """Where the stream stands (JSON-able), for a resume."""
-        return {"space": self.space.state(), "skip_left": self.skip_left}
-
-    def set_state(self, state):
-        self.space.set_state(state["space"])
-        self.skip_left = int(state["skip_left"])
-
-    def take(self, n, drops=None):
-        """The next n valid samples as a dict of arrays, and the drop counts."""
-        drops = {} if drops is None else drops
-        if self.skip_left:  # valid samples drawn and discarded first (skip)
-            skip, self.skip_left = self.skip_left, 0
-            _, drops = self.take(skip, drops)
-        parts = []
-        kept = 0
-        while kept < n:
-            skipped = self.space.skipped
-            feats, scales = self.space.random_with_scales(n - kept)
-            at_v0 = self.space.skipped - skipped
-            if at_v0:
-                drops[_AT_V0] = drops.get(_AT_V0, 0) + at_v0
-            cq, cv = self.space.controls(feats)
-            pots = BoundedPotential(cq, cv)
-            q, p, reasons = label_potentials(pots, TIMES, rtol=self.rtol, energy_tol=self.energy_tol)
-            ok = np.array([r == "" for r in reasons])
-            for r in reasons:
-                if r:
-                    drops[r] = drops.get(r, 0) + 1
-            parts.append({
-                "V": pots[ok].V(SENSORS) if ok.any() else np.empty((0, SENSORS.size)),
-                "q": q[ok], "p": p[ok], "n_grf": feats[ok, 0].astype(np.int8),
-                "control_q": cq[ok], "control_V": cv[ok], "length_scale": scales[ok],
-            })
-            kept += int(ok.sum())
-        arrays = {k: np.concatenate([part[k] for part in parts]) for k in parts[0]}
-        arrays["x"] = np.array(SENSORS)
-        arrays["t"] = np.array(TIMES)
-        return arrays, drops
-
-
-#: Drop reason of a batch-normalised candidate whose interior control value is V0 itself
-#: (the pool's minimum GRF value): its force at the wall can vanish, so it is skipped.
-_AT_V0 = "interior control value at V0"
 
 
 def load_dataset(path, *, verify=True):

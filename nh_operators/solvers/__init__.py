@@ -18,5 +18,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
                    "spline_curvature", "spline_drift"],
     "rows": ["RowSource", "row_source", "solve_rows"],
     "schemes": ["MAX_STEPS", "METHODS", "ORDERS"],
-    "states": ["STATE_ATOL", "check_states", "random_states", "state_arrays"],
+    "states": ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",
+               "state_arrays"],
 })

@@ -5,7 +5,7 @@ from scipy import integrate as sp_integrate
 
 from .._constants import TIMES
 from ..potentials.bounded import BoundedPotential
-from . import _kernels
+from . import _curve_kernels
 from .schemes import _check_times
 from .states import check_states, state_arrays
 
@@ -55,11 +55,11 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
         n = potential.params.shape[0]
         q0s, p0s = state_arrays(q0, p0, n)
         lam0s, v0s = np.empty(n), np.empty(n)
-        _kernels.curve_starts(potential.params, q0s, lam0s, v0s)
+        _curve_kernels.curve_starts(potential.params, q0s, lam0s, v0s)
         start = check_states(q0s, p0s, lambda _: v0s, potential.batched)
         oq, op, ov = (np.empty((n, ts.size)) for _ in range(3))
         steps = np.empty(n, dtype=np.int64)
-        _kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps,
+        _curve_kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps,
                            lam0s, p0s)
         energy = np.max(np.abs(ov - start[:, None]), axis=1)
     elif hasattr(potential, "dV"):

@@ -10,7 +10,8 @@ import numpy as np
 
 from .._constants import V0
 
-__all__ = ["STATE_ATOL", "check_states", "random_states", "state_arrays"]
+__all__ = ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",
+           "state_arrays"]
 
 #: Energy above V0 that is still accepted (rounding of p0²/2 + V(q0)).
 STATE_ATOL = 1e-12
@@ -124,3 +125,76 @@ def random_states(value_at, n, rng):
         q0[i] = q
         p0[i] = rng.choice([-1.0, 1.0]) * np.sqrt(2.0 * rng.uniform(0.0, V0 - v))
     return q0, p0
+
+
+#: Uniform numbers one state of :func:`energy_states` consumes.
+STATE_UNIFORMS = 5
+
+
+def energy_states(values, uniforms, *, separatrix_share=0.25, grid=1025):
+    """Starting states stratified by energy, one per row, from given uniform numbers.
+
+    Uniform in energy rather than in q0: the energy E is uniform in [V_min, V0] (V_min the
+    row's minimum), except that with probability ``separatrix_share``, on a row whose V
+    has an interior local maximum V_s, E lies within 1e-4..1e-1 of (V0 − V_min) of V_s
+    (log-uniform, either side): the slow orbits near a separatrix, which a uniform energy
+    would make rare. q0 is then uniform over the points where V ≤ E and p0 = ±√(2(E −
+    V(q0))). Every row consumes exactly :data:`STATE_UNIFORMS` numbers, so a stream of
+    rows gives the same states however it is cut into batches.
+
+    Args:
+        values: callable mapping an (N, G) array of positions to V of row i at row i's
+            positions.
+        uniforms: (N, STATE_UNIFORMS) numbers in [0, 1).
+        separatrix_share: the share of near-separatrix draws, in [0, 1].
+        grid: points of the uniform grid on [0, 1] that locates V_min, the maxima and the
+            set V ≤ E (the state's own energy is exact, whatever the grid).
+
+    Returns:
+        (q0, p0, near): (N,) arrays; ``near`` is True for a near-separatrix draw.
+
+    Raises:
+        ValueError: for a share outside [0, 1] or uniforms of the wrong shape.
+
+    Example:
+        >>> sho = lambda x: 8 * (x - 0.5) ** 2
+        >>> u = np.random.default_rng(0).random((4, STATE_UNIFORMS))
+        >>> q0, p0, near = energy_states(sho, u)
+        >>> bool(np.all(0.5 * p0**2 + sho(q0) <= V0)), near.tolist()  # no maximum inside
+        (True, [False, False, False, False])
+    """
+    if not 0.0 <= separatrix_share <= 1.0:
+        raise ValueError(f"separatrix_share must be in [0, 1], got {separatrix_share}")
+    uniforms = np.asarray(uniforms, dtype=np.float64)
+    if uniforms.ndim != 2 or uniforms.shape[1] != STATE_UNIFORMS:
+        raise ValueError(f"uniforms must have shape (N, {STATE_UNIFORMS}), got "
+                         f"{uniforms.shape}")
+    n = uniforms.shape[0]
+    x = np.linspace(0.0, 1.0, grid)
+    v = np.asarray(values(np.broadcast_to(x, (n, grid))), dtype=np.float64)
+    kind, level, which, where, sign = uniforms.T
+    v_min = v.min(axis=1)
+    energy = v_min + level * (V0 - v_min)
+    near = np.zeros(n, dtype=bool)
+    inner = v[:, 1:-1]
+    peaks = (inner > v[:, :-2]) & (inner >= v[:, 2:])
+    for i in np.flatnonzero((kind < separatrix_share) & peaks.any(axis=1)):
+        js = np.flatnonzero(peaks[i]) + 1
+        j = js[min(int(which[i] * js.size), js.size - 1)]
+        a, b, c = v[i, j - 1], v[i, j], v[i, j + 1]  # the parabola's top through 3 points
+        curv = a - 2 * b + c
+        top = b - (c - a) ** 2 / (8 * curv) if curv < 0 else b
+        side = 1.0 if level[i] >= 0.5 else -1.0
+        gap = 10.0 ** (-4.0 + 3.0 * (2.0 * level[i] % 1.0)) * (V0 - v_min[i])
+        energy[i] = min(max(top + side * gap, v_min[i]), V0)
+        near[i] = True
+    q0 = np.empty(n)
+    cells = (v[:, :-1] <= energy[:, None]) | (v[:, 1:] <= energy[:, None])
+    for i in range(n):
+        allowed = np.flatnonzero(cells[i])
+        pos = where[i] * allowed.size
+        k = min(int(pos), allowed.size - 1)
+        q0[i] = x[allowed[k]] + (pos - k) * (x[1] - x[0])
+    v0 = np.asarray(values(q0[:, None]), dtype=np.float64)[:, 0]
+    p0 = np.where(sign < 0.5, -1.0, 1.0) * np.sqrt(2.0 * np.maximum(energy - v0, 0.0))
+    return q0, p0, near

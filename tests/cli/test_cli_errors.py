@@ -45,6 +45,12 @@ def _cases(tmp, data):
                                 str(tmp / "no" / "a.h5")], "does not exist"),
         "generate existing": (["generate", "--size", "5", "--seed", "1", "--out", d],
                               "already exists; pass force=True (--force)"),
+        "generate share without states": (["generate", "--size", "5", "--seed", "1", "--out",
+                                           str(tmp / "s.h5"), "--separatrix-share", "0.5"],
+                                          "--separatrix-share needs --states energy"),
+        "generate share 2": (["generate", "--size", "5", "--seed", "1", "--out",
+                              str(tmp / "s.h5"), "--states", "energy", "--separatrix-share",
+                              "2"], "separatrix_share must be in [0, 1], got 2.0"),
         # train and tune
         "train --data dir": (["train", "--model", "deeponet", "--data", str(tmp), "--out", out],
                              f"argument --data: {str(tmp)!r} is a directory; give a file"),
@@ -127,6 +133,18 @@ def test_an_explicit_flag_says_it_overrides_the_preset(tmp_path, capsys):
     assert main(["generate", "--preset", "test", "--size", "10", "--out", str(out),
                  "--quiet"]) == 0
     assert "note: --size 10 overrides the test preset's 4000" in capsys.readouterr().err
+
+
+def test_a_states_preset_draws_states_for_the_same_potentials(tmp_path, capsys):
+    out, plain = tmp_path / "s.h5", tmp_path / "p.h5"
+    assert main(["generate", "--preset", "paper-states-test", "--size", "6", "--out",
+                 str(out), "--quiet"]) == 0
+    assert main(["generate", "--preset", "paper-test", "--size", "6", "--out", str(plain),
+                 "--quiet"]) == 0
+    with_states, without = nh.load_dataset(out), nh.load_dataset(plain)
+    assert with_states.attrs["states"]["distribution"] == "energy"
+    assert with_states.q0.shape == (6,) and without.q0 is None
+    assert (with_states.V == without.V).all()
 
 
 def test_force_replaces_a_finished_file(tmp_path, capsys):
