@@ -8,6 +8,9 @@ checkpoint holds, on
   set; runs trained on other files are scored there too, so every row is comparable),
 - and on ``--test`` (the 4,000-potential test set), when given.
 
+Datasets with starting states (``--states energy``) score networks that read them
+(``initial_state=True``); score such runs in a folder of their own.
+
 The table has, per change: the seeds, training minutes and epochs (mean over seeds),
 training throughput in potentials per second, the validation mean L_tot (mean over
 seeds, with the seeds' range), the test mean, and the ratio of the validation mean to
@@ -41,10 +44,11 @@ def scores(net, V, t, q, p, batch_size=500):
 
 def split(path, part):
     ds = load_dataset(path)
+    V = ds.branch_input()  # with starting states: the sensors, then q0 and p0
     if part == "all":
-        return ds.V, ds.t, ds.q, ds.p
+        return V, ds.t, ds.q, ds.p
     _, val = ds.split_indices()
-    return ds.V[val], ds.t, ds.q[val], ds.p[val]
+    return V[val], ds.t, ds.q[val], ds.p[val]
 
 
 def main():

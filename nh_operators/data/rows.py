@@ -58,11 +58,14 @@ class Rows(abc.ABC):
         t: (M,) query times of the labels.
         seed: the dataset's seed (the default split seed).
         checksum: the dataset's checksum (checkpoints record it).
+        states: whether each row starts from its own (q0, p0); then the V that
+            :meth:`read` returns holds the sensors followed by q0 and p0, (k, m + 2).
     """
 
     t: np.ndarray
     seed: int
     checksum: str
+    states: bool = False
 
     @abc.abstractmethod
     def __len__(self):
@@ -78,7 +81,8 @@ class Rows(abc.ABC):
             dtype: dtype of the arrays returned (converted block by block).
 
         Returns:
-            (V, q, p): arrays of shape (k, m), (k, M), (k, M).
+            (V, q, p): arrays of shape (k, m) (with states (k, m + 2): the network's
+            input), (k, M), (k, M).
 
         Raises:
             IndexError: for a row number outside [0, N).
@@ -114,6 +118,8 @@ class MemoryRows(Rows):
 
     def __init__(self, dataset):
         self.dataset = dataset
+        self.states = getattr(dataset, "q0", None) is not None
+        self._branch = dataset.branch_input() if self.states else dataset.V
         self.t = np.asarray(dataset.t)
         self.seed = dataset.seed
         self.checksum = dataset.checksum
@@ -124,7 +130,7 @@ class MemoryRows(Rows):
     def read(self, index, dtype=np.float64):
         index = self._check(index)
         ds = self.dataset
-        return tuple(a[index].astype(dtype, copy=False) for a in (ds.V, ds.q, ds.p))
+        return tuple(a[index].astype(dtype, copy=False) for a in (self._branch, ds.q, ds.p))
 
 
 @final
@@ -172,6 +178,7 @@ class H5Rows(Rows):
                 raise ValueError(f"checksum mismatch in {self.path!r}: the file is "
                                  "corrupted or was modified")
             self.t = f["t"][()]
+            self.states = "states" in f.attrs
             self.seed = int(f.attrs["seed"])
             self._n = f["V"].shape[0]
 
@@ -183,8 +190,9 @@ class H5Rows(Rows):
         order = np.argsort(index, kind="stable")
         wanted = index[order]
         out = []
+        names = self.NAMES + (("q0", "p0") if self.states else ())
         with h5py.File(self.path, "r") as f:
-            for name in self.NAMES:
+            for name in names:
                 data = f[name]
                 rows = np.empty((index.size,) + data.shape[1:], dtype=dtype)
                 pos = 0
@@ -195,6 +203,9 @@ class H5Rows(Rows):
                     rows[order[pos:end]] = block[wanted[pos:end] - lo]
                     pos = end
                 out.append(rows)
+        if self.states:  # the network's input: sensors, then q0 and p0
+            V, q, p, q0, p0 = out
+            out = [np.concatenate([V, q0[:, None], p0[:, None]], axis=1), q, p]
         return tuple(out)
 
 

@@ -11,12 +11,14 @@ _dde = ensure_pytorch_backend()
 NN = _dde.nn.pytorch.nn.NN
 
 
-def split_inputs(inputs, n_sensors):
+def split_inputs(inputs, n_sensors, initial_state=False):
     """Check and unpack DeepXDE's ``(V, t)`` pair.
 
     Args:
-        inputs: tuple ``(V, t)``: V of shape (B, n_sensors), t of shape (M, 1).
+        inputs: tuple ``(V, t)``: V of shape (B, n_sensors), t of shape (M, 1); with
+            ``initial_state``, V is (B, n_sensors + 2): the sensors, then q0 and p0.
         n_sensors: the expected number of sensors.
+        initial_state: whether the network reads a starting state after the sensors.
 
     Returns:
         (V, t) unchanged.
@@ -28,8 +30,14 @@ def split_inputs(inputs, n_sensors):
         raise ValueError("a network input must be the pair (V, t) of DeepXDE's "
                          "TripleCartesianProd")
     V, t = inputs
-    if V.ndim != 2 or V.shape[1] != n_sensors:
-        raise ValueError(f"V must have shape (batch, {n_sensors}), got {tuple(V.shape)}")
+    width = n_sensors + (2 if initial_state else 0)
+    if V.ndim != 2 or V.shape[1] != width:
+        what = (f" ({n_sensors} sensors, then q0 and p0: this network reads a starting "
+                "state)" if initial_state else "")
+        hint = ("; a network built with initial_state=True reads (q0, p0) after the sensors"
+                if not initial_state and V.ndim == 2 and V.shape[1] == n_sensors + 2 else "")
+        raise ValueError(f"V must have shape (batch, {width}){what}, got "
+                         f"{tuple(V.shape)}{hint}")
     if t.ndim != 2 or t.shape[1] != 1:
         raise ValueError(f"t must have shape (M, 1), got {tuple(t.shape)}")
     return V, t
@@ -73,6 +81,18 @@ class SensorEmbedding(nn.Module):
             index = torch.arange(V.shape[1], device=V.device, dtype=V.dtype)
             tokens = tokens + sinusoidal(index, self.d_model)
         return tokens
+
+
+class StateEmbedding(nn.Module):
+    """(q0, p0) (B, 2) → one token (B, 1, d): how the sequence networks read a starting
+    state (a Linear(2, d); the token joins the sensor tokens in front)."""
+
+    def __init__(self, d_model):
+        super().__init__()
+        self.embed = nn.Linear(2, d_model)
+
+    def forward(self, state):
+        return self.embed(state)[:, None, :]
 
 
 class CrossDecoderLayer(nn.Module):
@@ -188,7 +208,8 @@ class TimeDecoder(nn.Module):
 class OperatorNet(NN):
     """Abstract base of our networks: input checks and DeepXDE's transforms.
 
-    Subclasses implement ``_forward(V, t)`` → (B, M, n_outputs). DeepXDE's feature
+    Subclasses implement ``_forward(V, t)`` → (B, M, n_outputs); with
+    ``initial_state`` V holds the sensors then (q0, p0) (:meth:`_sensors_and_state`). DeepXDE's feature
     transform (``apply_feature_transform``) is applied to t, as in DeepXDE's own
     ``DeepONetCartesianProd``; its output transform gets ``((V, t), y)``. With
     ``n_outputs == 1`` the last axis is dropped, again as DeepXDE's DeepONet does.
@@ -196,12 +217,15 @@ class OperatorNet(NN):
 
     n_sensors = 100
     n_outputs = 2
+    #: True when the input V carries a starting state (q0, p0) after the sensors
+    #: (constructor option ``initial_state``; False: release at rest at q = 0).
+    initial_state = False
     #: True when a prediction at one time depends on the other times of the same call
     #: (self-attention over the query times, or an LSTM reading them as a sequence).
     query_coupled = False
 
     def forward(self, inputs):
-        V, t = split_inputs(inputs, self.n_sensors)
+        V, t = split_inputs(inputs, self.n_sensors, self.initial_state)
         if self._input_transform is not None:
             t = self._input_transform(t)
         y = self._forward(V, t)
@@ -213,3 +237,9 @@ class OperatorNet(NN):
 
     def _forward(self, V, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _sensors_and_state(self, V):
+        """(sensors (B, m), state (B, 2) or None) of an input V."""
+        if not self.initial_state:
+            return V, None
+        return V[:, :self.n_sensors], V[:, self.n_sensors:]

@@ -28,6 +28,8 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
             as DeepXDE does (default True). False leaves the trunk's basis linear.
         n_sensors: length m of V (default 100).
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
+        initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), and the
+            branch reads all m + 2 numbers (default False: rest at q = 0).
 
     Example:
         >>> import torch
@@ -38,12 +40,13 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
 
     def __init__(self, hidden_size=128, hidden_layers=3, branches=10,
                  activation="gelu", initializer="Glorot normal", n_sensors=100,
-                 n_outputs=2, trunk_output_activation=True):
+                 n_outputs=2, trunk_output_activation=True, initial_state=False):
         hidden = [hidden_size] * hidden_layers
+        extra = 2 if initial_state else 0
         width = n_outputs * branches
         torch_init = initializer == "torch"
         super().__init__(
-            [n_sensors, *hidden, width], [1, *hidden, width], activation,
+            [n_sensors + extra, *hidden, width], [1, *hidden, width], activation,
             "Glorot normal" if torch_init else initializer,
             num_outputs=n_outputs,
             multi_output_strategy="split_both" if n_outputs > 1 else None)
@@ -57,9 +60,10 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
             self.activation_trunk = _identity
         self.trunk_output_activation = bool(trunk_output_activation)
         self.n_sensors = n_sensors
+        self.initial_state = bool(initial_state)
 
     def forward(self, inputs):
-        split_inputs(inputs, self.n_sensors)
+        split_inputs(inputs, self.n_sensors, self.initial_state)
         return super().forward(inputs)
 
 

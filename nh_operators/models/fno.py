@@ -27,6 +27,8 @@ class FNO(OperatorNet):
         t_max: end of the time grid (default 2).
         n_sensors: length m of V (default 100).
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
+        initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), read as
+            two constant input channels beside V (default False: rest at q = 0).
 
     Example:
         >>> import torch
@@ -36,15 +38,16 @@ class FNO(OperatorNet):
     """
 
     def __init__(self, n_modes=16, hidden_channels=64, n_layers=4, n_grid=100,
-                 t_max=2.0, n_sensors=100, n_outputs=2):
+                 t_max=2.0, n_sensors=100, n_outputs=2, initial_state=False):
         super().__init__()
+        self.initial_state = bool(initial_state)
         from neuralop.models import FNO as _NeuralopFNO
 
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.n_grid = n_grid
         self.t_max = float(t_max)
-        self.fno = _NeuralopFNO(n_modes=(n_modes,), in_channels=1,
+        self.fno = _NeuralopFNO(n_modes=(n_modes,), in_channels=3 if self.initial_state else 1,
                                 out_channels=n_outputs,
                                 hidden_channels=hidden_channels, n_layers=n_layers)
 
@@ -56,7 +59,11 @@ class FNO(OperatorNet):
         return state
 
     def _forward(self, V, t):
-        y = self.fno(V[:, None, :], output_shape=(self.n_grid,))  # (B, n_out, n_grid)
+        V, state = self._sensors_and_state(V)
+        x = V[:, None, :]
+        if state is not None:
+            x = torch.cat([x, state[:, :, None].expand(-1, -1, V.shape[1])], dim=1)
+        y = self.fno(x, output_shape=(self.n_grid,))  # (B, n_out, n_grid)
         s = t[:, 0] / self.t_max * (self.n_grid - 1)
         if torch.any(s < -1e-6) or torch.any(s > self.n_grid - 1 + 1e-6):
             raise ValueError(f"FNO query times must lie in [0, {self.t_max}]")

@@ -1,8 +1,9 @@
 """MambONet: residual Mamba blocks over the potential, a transformer decoder over time."""
 
+import torch
 from torch import nn
 
-from ._layers import OperatorNet, SensorEmbedding, TimeDecoder
+from ._layers import OperatorNet, SensorEmbedding, StateEmbedding, TimeDecoder
 from .mamba import Mamba
 
 __all__ = ["MambONet"]
@@ -41,6 +42,8 @@ class MambONet(OperatorNet):
         dropout: decoder dropout (default 0).
         n_sensors, n_outputs, time_scale, query_attention, norm_first, activation: as
             :class:`~nh_operators.models.TraONet` (the last two for the decoder).
+        initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), embedded
+            as one token at the start of the scan (default False: rest at q = 0).
 
     Example:
         >>> import torch
@@ -55,8 +58,11 @@ class MambONet(OperatorNet):
     def __init__(self, d_model=128, num_mamba_layers=4, nhead=4, num_decoder_layers=4,
                  dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
                  n_sensors=100, n_outputs=2, time_scale=99 / 2, query_attention=True,
-                 norm_first=False, activation="relu"):
+                 norm_first=False, activation="relu", initial_state=False):
         super().__init__()
+        self.initial_state = bool(initial_state)
+        if self.initial_state:
+            self.state_embedding = StateEmbedding(d_model)
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.query_coupled = bool(query_attention)
@@ -71,7 +77,10 @@ class MambONet(OperatorNet):
                                    norm_first, activation)
 
     def _forward(self, V, t):
+        V, state = self._sensors_and_state(V)
         h = self.embedding(V)
+        if state is not None:  # first in the scan, so every sensor token sees it
+            h = torch.cat([self.state_embedding(state), h], dim=1)
         for block in self.blocks:
             h = block(h)
         return self.decoder(t, self.norm(h))

@@ -4,7 +4,8 @@ import math
 
 import torch
 
-from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
+from ._layers import (OperatorNet, SensorEmbedding, StateEmbedding, TimeDecoder,
+                      transformer_encoder)
 
 #: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],
 #: and |p| ≤ sqrt(2 (V0 − min V)) ≤ sqrt(8) for the generator's V ≥ −2.
@@ -40,6 +41,9 @@ class TraONet(OperatorNet):
         scaled_outputs: False (default): the output layer predicts q and p themselves.
             True: it predicts (2q − 1, p / sqrt(8)), both within [−1, 1], and the network
             maps them back, so the loss and the outputs are unchanged in meaning.
+        initial_state: False (default): release at rest at q = 0, the paper's scene.
+            True: V carries (q0, p0) after the sensors, (B, m + 2), embedded as one
+            more encoder token (Linear(2, d), no position) in front of the sensors.
 
     Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
 
@@ -55,8 +59,11 @@ class TraONet(OperatorNet):
     def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
                  dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2,
                  query_attention=True, norm_first=False, activation="relu",
-                 scaled_outputs=False):
+                 scaled_outputs=False, initial_state=False):
         super().__init__()
+        self.initial_state = bool(initial_state)
+        if self.initial_state:
+            self.state_embedding = StateEmbedding(d_model)
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.query_coupled = bool(query_attention)
@@ -71,7 +78,11 @@ class TraONet(OperatorNet):
         self.scaled_outputs = bool(scaled_outputs)
 
     def _forward(self, V, t):
-        y = self.decoder(t, self.encoder(self.embedding(V)))
+        V, state = self._sensors_and_state(V)
+        tokens = self.embedding(V)
+        if state is not None:
+            tokens = torch.cat([self.state_embedding(state), tokens], dim=1)
+        y = self.decoder(t, self.encoder(tokens))
         if self.scaled_outputs:
             y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
         return y

@@ -47,6 +47,9 @@ class VaRONet(OperatorNet):
             spline is skipped, so training is unchanged). Times must lie in [0, 2].
             ``False``: the decoders read the asked times as their sequence, as the
             paper describes; a prediction then changes with its company.
+        initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), and the
+            encoder reads (V(x_j), q0, p0) at every step (default False: rest at
+            q = 0).
 
     Attributes:
         noise: ``None`` (ε = ``torch.randn_like(μ)``) or a callable ``noise(mu)``
@@ -68,7 +71,7 @@ class VaRONet(OperatorNet):
     """
 
     def __init__(self, hidden_size=512, num_layers=4, latent_dim=30, n_sensors=100,
-                 n_outputs=2, encoder_cell=False, grid_decoder=True):
+                 n_outputs=2, encoder_cell=False, grid_decoder=True, initial_state=False):
         super().__init__()
         self.encoder_cell = bool(encoder_cell)
         self.grid_decoder = bool(grid_decoder)
@@ -79,7 +82,9 @@ class VaRONet(OperatorNet):
         self.n_outputs = n_outputs
         self.hidden_size = hidden_size
         self.num_layers = num_layers
-        self.encoder = nn.LSTM(1, hidden_size, num_layers, batch_first=True)
+        self.initial_state = bool(initial_state)
+        self.encoder = nn.LSTM(3 if self.initial_state else 1, hidden_size, num_layers,
+                               batch_first=True)
         self.mu = nn.Linear(hidden_size, latent_dim)
         self.logvar = nn.Linear(hidden_size, latent_dim)
         states = 1 if self.encoder_cell else 2  # h only, or h and c, from z
@@ -94,7 +99,11 @@ class VaRONet(OperatorNet):
         self.noise = None
 
     def _forward(self, V, t):
-        _, (h, c) = self.encoder(V[..., None])
+        V, state = self._sensors_and_state(V)
+        steps = V[..., None]
+        if state is not None:
+            steps = torch.cat([steps, state[:, None, :].expand(-1, V.shape[1], -1)], dim=-1)
+        _, (h, c) = self.encoder(steps)
         h = h[-1]
         mu, logvar = self.mu(h), self.logvar(h)
         self.kl = torch.mean(-0.5 * torch.sum(1 + logvar - mu**2 - logvar.exp(), dim=-1))

@@ -103,6 +103,14 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
         raise ValueError("amp (float16 autocast) is only supported on CUDA")
     check_global_batch(cfg["batch_size"], dist.world_size)
     rows = open_rows(data, verify=dist.is_main)
+    reads_state = bool(cfg["arch"].get("initial_state", False))
+    if rows.states != reads_state:
+        raise ValueError(
+            "the dataset's rows start from their own states (q0, p0), but the network "
+            "does not read them: add --arch initial_state=True (TrainConfig arch "
+            "{'initial_state': True})" if rows.states else
+            "the network reads a starting state (initial_state=True), but the dataset "
+            "has none: generate one with --states energy (or a -states- preset)")
     checksum = rows.checksum
     cfg = {**cfg, "world_size": dist.world_size}
     state = _prepare(out, resume, cfg, checksum, dist)
