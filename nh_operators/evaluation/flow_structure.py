@@ -1,0 +1,147 @@
+"""What a Hamiltonian flow keeps, measured on any map (q0, p0) ↦ (q(t), p(t)).
+
+A Hamiltonian flow is symplectic: its Jacobian J = ∂(q(t), p(t))/∂(q0, p0) satisfies
+JᵀΩJ = Ω with Ω = [[0, 1], [−1, 0]]. With one degree of freedom J is 2×2 and
+JᵀΩJ = det(J) Ω for every J, so the symplectic defect ‖JᵀΩJ − Ω‖_F is exactly
+√2 |det J − 1|: here symplecticity *is* area preservation, and one number measures both.
+The flow is also time-reversible: run to t, reverse the momentum, run t again, reverse it
+again, and the start comes back.
+
+The maps are given as ``flow(q0, p0) -> (q, p)`` (arrays (N,) in, (N, M) out), so
+classical methods and networks are measured alike; :func:`network_flow` makes one of a
+network that reads a starting state, and :func:`network_jacobian` differentiates such a
+network exactly, by autograd.
+"""
+
+import numpy as np
+import torch
+
+__all__ = ["area_defect", "flow_jacobian", "network_flow", "network_jacobian",
+           "reversibility_error", "symplectic_defect"]
+
+_OMEGA = np.array([[0.0, 1.0], [-1.0, 0.0]])
+
+
+def flow_jacobian(flow, q0, p0, eps=1e-6):
+    """Jacobian of a flow by central differences (error O(eps²)).
+
+    Args:
+        flow: ``flow(q0, p0) -> (q, p)``: (N,) starting states to (N, M) arrays.
+        q0, p0: (N,) states where J is taken (each must stay bounded when moved by eps).
+        eps: the step in q0 and in p0.
+
+    Returns:
+        (N, M, 2, 2) float64: ``J[..., 0, 1]`` is ∂q(t)/∂p0.
+
+    Example:
+        >>> rotate = lambda q, p: (np.stack([q + p], 1), np.stack([p], 1))  # a shear
+        >>> J = flow_jacobian(rotate, np.zeros(1), np.zeros(1))
+        >>> np.round(J[0, 0], 8).tolist()
+        [[1.0, 1.0], [0.0, 1.0]]
+    """
+    q0, p0 = np.asarray(q0, dtype=np.float64), np.asarray(p0, dtype=np.float64)
+    columns = []
+    for dq, dp in ((eps, 0.0), (0.0, eps)):
+        qa, pa = flow(q0 + dq, p0 + dp)
+        qb, pb = flow(q0 - dq, p0 - dp)
+        columns.append(np.stack([(np.asarray(qa) - qb) / (2 * eps),
+                                 (np.asarray(pa) - pb) / (2 * eps)], axis=-1))
+    return np.stack(columns, axis=-1)
+
+
+def area_defect(J):
+    """|det J − 1| of Jacobians (..., 2, 2): 0 for an area-preserving (symplectic) map."""
+    J = np.asarray(J, dtype=np.float64)
+    return np.abs(J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0] - 1.0)
+
+
+def symplectic_defect(J):
+    """‖JᵀΩJ − Ω‖_F of Jacobians (..., 2, 2), computed as written (it equals
+    √2 · :func:`area_defect` in one degree of freedom)."""
+    J = np.asarray(J, dtype=np.float64)
+    form = np.swapaxes(J, -1, -2) @ _OMEGA @ J
+    return np.sqrt(np.sum((form - _OMEGA) ** 2, axis=(-2, -1)))
+
+
+def reversibility_error(flow, q0, p0):
+    """How far ``flow`` is from reversible: run it, reverse p, run it again, reverse p.
+
+    Args:
+        flow: ``flow(q0, p0) -> (q, p)`` to one time t (M = 1), or several (the last
+            is used).
+        q0, p0: (N,) starting states.
+
+    Returns:
+        (N,) √(((q'' − q0)² + (p'' − p0)²) / 2) (0 for an exact flow).
+    """
+    q, p = flow(np.asarray(q0, dtype=np.float64), np.asarray(p0, dtype=np.float64))
+    q1, p1 = np.asarray(q)[:, -1], -np.asarray(p)[:, -1]
+    q2, p2 = flow(q1, p1)
+    q2, p2 = np.asarray(q2)[:, -1], -np.asarray(p2)[:, -1]
+    return np.sqrt(0.5 * ((q2 - q0) ** 2 + (p2 - p0) ** 2))
+
+
+def _state_input(net, V, q0, p0):
+    if not getattr(net, "initial_state", False):
+        raise ValueError("the network does not read a starting state: build it with "
+                         "initial_state=True (a map of (q0, p0) needs one)")
+    param = next(net.parameters())
+    dtype, device = param.dtype, param.device
+    V = torch.as_tensor(np.asarray(V), dtype=dtype, device=device)
+    state = torch.stack([torch.as_tensor(np.asarray(q0), dtype=dtype, device=device),
+                         torch.as_tensor(np.asarray(p0), dtype=dtype, device=device)], 1)
+    return V, state
+
+
+def network_flow(net, V, t):
+    """The flow (q0, p0) ↦ (q(t), p(t)) of a network that reads a starting state.
+
+    Args:
+        net: a network built with ``initial_state=True`` (in eval mode for a
+            deterministic map).
+        V: (N, 100) sensor values, one row per state.
+        t: (M,) times.
+
+    Returns:
+        ``flow(q0, p0) -> (q, p)``, float64 arrays (N, M).
+
+    Raises:
+        ValueError: for a network that does not read a state.
+    """
+    def flow(q0, p0):
+        Vt, state = _state_input(net, V, q0, p0)
+        times = torch.as_tensor(np.asarray(t), dtype=Vt.dtype, device=Vt.device)[:, None]
+        with torch.no_grad():
+            y = net((torch.cat([Vt, state], 1), times))
+        y = y.double().cpu().numpy()
+        return y[..., 0], y[..., 1]
+    return flow
+
+
+def network_jacobian(net, V, q0, p0, t):
+    """The exact Jacobian ∂(q(t), p(t))/∂(q0, p0) of a stateful network, by autograd.
+
+    Rows are independent, so each output's gradient over the batch is one backward pass:
+    2·M passes in all.
+
+    Args:
+        net, V, t: as :func:`network_flow`.
+        q0, p0: (N,) states.
+
+    Returns:
+        (N, M, 2, 2) float64.
+
+    Raises:
+        ValueError: for a network that does not read a state.
+    """
+    Vt, state = _state_input(net, V, q0, p0)
+    state.requires_grad_(True)
+    times = torch.as_tensor(np.asarray(t), dtype=Vt.dtype, device=Vt.device)[:, None]
+    with torch.enable_grad():
+        y = net((torch.cat([Vt, state], 1), times))  # (N, M, 2)
+        J = torch.empty(y.shape[0], y.shape[1], 2, 2, dtype=torch.float64)
+        for i in range(y.shape[1]):
+            for k in range(2):
+                (grad,) = torch.autograd.grad(y[:, i, k].sum(), state, retain_graph=True)
+                J[:, i, k, :] = grad.double().cpu()
+    return J.numpy()
