@@ -27,9 +27,9 @@ docs: $(BIN)/.installed  ## this site in docs/_build/html, warnings as errors; r
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
 bench: $(BIN)/.installed  ## benchmark tables (minutes)
-	$(BIN)/python benchmarks/label_generation.py
-	$(BIN)/python benchmarks/classical_speed_accuracy.py
-	$(BIN)/python benchmarks/model_throughput.py
+	$(BIN)/python benchmarks/cost/label_generation.py
+	$(BIN)/python benchmarks/cost/classical_speed_accuracy.py
+	$(BIN)/python benchmarks/cost/model_throughput.py
 
 study: $(BIN)/.installed  ## work precision on the test set (minutes); add networks: make study RUNS="runs/a runs/b"
 	test -f test.h5 || $(BIN)/nh-operators generate --preset test --out test.h5 --quiet

@@ -84,6 +84,6 @@ ax.legend()
 # The paper's RK4 row used one step per output interval and a PCHIP force; done
 # correctly (:func:`nh_operators.paper_rk4`) it is still far above RK4 with a cubic
 # spline at a few substeps. Over 4,000 test potentials the sensor-spline floor is a
-# mean L_tot of about 3.5e-6 (``python benchmarks/classical_speed_accuracy.py``).
+# mean L_tot of about 3.5e-6 (``python benchmarks/cost/classical_speed_accuracy.py``).
 q, p = nh.paper_rk4(V, nh.TIMES)
 print(f"paper-replica RK4: mean L_tot {loss_per_sample(q, p, q_ref, p_ref)['L_tot'].mean():.1e}")

@@ -22,12 +22,13 @@ __all__ = ["area_defect", "flow_jacobian", "network_flow", "network_jacobian",
 _OMEGA = np.array([[0.0, 1.0], [-1.0, 0.0]])
 
 
-def flow_jacobian(flow, q0, p0, eps=1e-6):
-    """Jacobian of a flow by central differences (error O(eps²)).
+def flow_jacobian(flow, q0, p0, eps=1e-4):
+    """Jacobian of a flow by the five-point central difference (error O(eps⁴), rounding
+    about 1e-16 / eps): f' ≈ (8 (f(x + ε) − f(x − ε)) − (f(x + 2ε) − f(x − 2ε))) / 12ε.
 
     Args:
         flow: ``flow(q0, p0) -> (q, p)``: (N,) starting states to (N, M) arrays.
-        q0, p0: (N,) states where J is taken (each must stay bounded when moved by eps).
+        q0, p0: (N,) states where J is taken (each must stay bounded when moved by 2 eps).
         eps: the step in q0 and in p0.
 
     Returns:
@@ -41,11 +42,11 @@ def flow_jacobian(flow, q0, p0, eps=1e-6):
     """
     q0, p0 = np.asarray(q0, dtype=np.float64), np.asarray(p0, dtype=np.float64)
     columns = []
-    for dq, dp in ((eps, 0.0), (0.0, eps)):
-        qa, pa = flow(q0 + dq, p0 + dp)
-        qb, pb = flow(q0 - dq, p0 - dp)
-        columns.append(np.stack([(np.asarray(qa) - qb) / (2 * eps),
-                                 (np.asarray(pa) - pb) / (2 * eps)], axis=-1))
+    for dq, dp in ((1.0, 0.0), (0.0, 1.0)):
+        at = {k: flow(q0 + k * eps * dq, p0 + k * eps * dp) for k in (-2, -1, 1, 2)}
+        parts = [(8 * (np.asarray(at[1][i]) - at[-1][i]) - (np.asarray(at[2][i]) - at[-2][i]))
+                 / (12 * eps) for i in (0, 1)]
+        columns.append(np.stack(parts, axis=-1))
     return np.stack(columns, axis=-1)
 
 

@@ -84,7 +84,7 @@ class PhaseONet(OperatorNet):
         n_sensors: length m of V (default 100).
         n_outputs: 2 (q and p; default) or 1 (q only, shape (B, M)).
         head: "phase" (default) as above; "time", the control of the ablation in
-            ``benchmarks/fast_operator.py``: the same network predicts q and p on a
+            ``benchmarks/cost/fast_operator.py``: the same network predicts q and p on a
             uniform grid of t ∈ [0, ``horizon``] (basis initialised to cos and sin of
             πmt/``horizon``) and the period is only an input feature (times past
             ``horizon`` take the last node's value).

@@ -4,10 +4,10 @@
 "Grid Search Range and Results") and the learning rates, upper bounds, infima and
 β of its TPE table. FNO and PhaseONet are not in the paper: their ``paper`` presets
 are our choice (PhaseONet: the same size in both presets, chosen by
-``benchmarks/fast_operator.py``).
+``benchmarks/cost/fast_operator.py``).
 
 ``cpu``: small enough that one epoch on the standard 8,000 training potentials takes
-at most a minute on a 2-core CPU (measured by ``benchmarks/model_throughput.py``);
+at most a minute on a 2-core CPU (measured by ``benchmarks/cost/model_throughput.py``);
 the training values are the paper's.
 """
 

@@ -27,7 +27,7 @@ So:
   it shrunk at the method's rate (a chance agreement of the last two is caught by the
   earlier pair).
 
-``benchmarks/classical_estimate.py`` measures it: on 242,000 queries (four sets of
+``benchmarks/promise/classical_estimate.py`` measures it: on 242,000 queries (four sets of
 potentials and starting states, tol 1e-2 to 1e-11) no accepted answer missed tol
 (worst true/tol 0.85); the estimate is 100–300× above the true error at the median,
 the price of that tail.

@@ -9,7 +9,7 @@ solver) — each with its own random set of query times. :func:`measure_contract
 ``solve`` and, as the baseline, always the classical solver at the same tolerance, and
 :func:`network_estimates` checks each network's a-posteriori estimate on its own:
 how often it would accept, and how often an accepted prediction is in fact worse than
-the tolerance. ``benchmarks/solve_contract.py`` prints the tables.
+the tolerance. ``benchmarks/promise/solve_contract.py`` prints the tables.
 """
 
 import time

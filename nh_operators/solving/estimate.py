@@ -22,7 +22,7 @@ is ``factor · raw``, with ``factor`` calibrated per network
 (:func:`~nh_operators.solving.calibrate_pretrained`): a bootstrap upper bound on the
 99.9 % quantile of true L_tot / raw over several families of inputs it was not trained
 on, at random asked times. ``calibration.json`` of each shipped model holds the numbers;
-``python benchmarks/pretrained_table.py --calibration`` prints them.
+``python benchmarks/paper/pretrained_table.py --calibration`` prints them.
 """
 
 import functools

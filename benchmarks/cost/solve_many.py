@@ -16,7 +16,7 @@ formula as a plain Python callable, and against a B-spline, at batch 1.
 
 Run it with::
 
-    python benchmarks/solve_many.py [--sizes 1 100 10000 100000] [--repeats 3]
+    python benchmarks/cost/solve_many.py [--sizes 1 100 10000 100000] [--repeats 3]
 """
 
 import argparse

@@ -15,7 +15,7 @@ measures it anyway.
 
 Run it with::
 
-    python benchmarks/query_coupling.py --test paper-test.h5 --run runs/X [--run ...]
+    python benchmarks/training/query_coupling.py --test paper-test.h5 --run runs/X [--run ...]
         [--pretrained traonet ...]
 """
 

@@ -1,6 +1,6 @@
 """Training and inference throughput of every network and preset on this machine.
 
-    python benchmarks/model_throughput.py [--models traonet,mambonet] [--presets cpu]
+    python benchmarks/cost/model_throughput.py [--models traonet,mambonet] [--presets cpu]
                                           [--device cpu|cuda] [--repeats 5]
 
 Training: DeepXDE's own compiled step (``dde.Model.train_step``: forward, loss,

@@ -19,7 +19,7 @@ speed against the cheapest DOP853 tolerance at least as accurate.
 
 Run it with::
 
-    python benchmarks/classical_speed_accuracy.py [--test FILE.h5] [--size N]
+    python benchmarks/cost/classical_speed_accuracy.py [--test FILE.h5] [--size N]
 """
 
 import argparse

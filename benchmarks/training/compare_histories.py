@@ -5,7 +5,7 @@ row per asked epoch, plus each run's last epoch.
 
 Run it with::
 
-    python benchmarks/compare_histories.py RUN_A RUN_B [--epochs 10 25 50 100 200]
+    python benchmarks/training/compare_histories.py RUN_A RUN_B [--epochs 10 25 50 100 200]
 """
 
 import argparse

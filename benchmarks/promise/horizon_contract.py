@@ -21,7 +21,7 @@ noise of a shared machine hits both alike.
 
 Run it with::
 
-    python benchmarks/horizon_contract.py [--size 20] [--horizons 2 100 1e4 1e6] [--repeats 9]
+    python benchmarks/promise/horizon_contract.py [--size 20] [--horizons 2 100 1e4 1e6] [--repeats 9]
 """
 
 import argparse

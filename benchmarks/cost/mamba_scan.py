@@ -10,7 +10,7 @@ steps after one warm-up step.
 
 Run it with::
 
-    python benchmarks/mamba_scan.py [--repeats 3] [--threads N] [--reference-128]
+    python benchmarks/cost/mamba_scan.py [--repeats 3] [--threads N] [--reference-128]
 
 Timings on a shared machine are only meaningful when it is otherwise idle: with all
 cores busy, the many small parallel kernels of a scan stall on each other (10x or more).

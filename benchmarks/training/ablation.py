@@ -18,7 +18,7 @@ the baseline's. Choose on the validation column; the test column is for the reco
 
 Run it with::
 
-    python benchmarks/ablation.py --runs runs/abl --val paper-standard.h5 \\
+    python benchmarks/training/ablation.py --runs runs/abl --val paper-standard.h5 \\
         --test paper-test.h5 [--json ablation.json]
 """
 

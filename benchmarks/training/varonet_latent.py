@@ -8,7 +8,7 @@ training loss weighs it per output.
 
 Run it with::
 
-    python benchmarks/varonet_latent.py --run final/varonet-paper --data paper-standard.h5
+    python benchmarks/training/varonet_latent.py --run final/varonet-paper --data paper-standard.h5
 """
 
 import argparse

@@ -8,7 +8,7 @@ throughput, dropped samples and the time extrapolated to 1,000,000 samples.
 
 Run it with::
 
-    python benchmarks/label_generation.py [--sizes 1000,10000] [--repeats 3]
+    python benchmarks/cost/label_generation.py [--sizes 1000,10000] [--repeats 3]
 
 Goal (DESIGN §5): ≤ 30 s for 10,000 samples on 2 cores.
 """

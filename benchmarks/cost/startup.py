@@ -15,7 +15,7 @@ wall time of the whole process (timings on a shared machine are noisy: compare m
 Run it on two checkouts (for example before and after a change) to compare them; the
 processes import ``nh_operators`` from the current folder first, then ``PYTHONPATH``::
 
-    OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/startup.py --repeats 3
+    OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/cost/startup.py --repeats 3
 """
 
 import argparse

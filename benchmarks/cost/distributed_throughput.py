@@ -1,6 +1,6 @@
 """Data-parallel training throughput and memory per rank, for 1 and 2 processes.
 
-    python benchmarks/distributed_throughput.py --data FILE.h5 [--procs 1 2]
+    python benchmarks/cost/distributed_throughput.py --data FILE.h5 [--procs 1 2]
         [--preset cpu] [--epochs 2] [--memory-only] [--max-rows R]
 
 For each process count N this starts ``torchrun --nproc_per_node N`` on this script

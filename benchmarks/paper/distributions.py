@@ -10,7 +10,7 @@ statistics of each set.
 
 Run it with::
 
-    python benchmarks/distributions.py [--folder data] [--size 4000]
+    python benchmarks/paper/distributions.py [--folder data] [--size 4000]
 
 (``--size`` below 4,000 draws a smaller test set with the same recipe, for a quick look.)
 """

@@ -1,6 +1,6 @@
 """CPU training throughput against thread count and ``torch.compile`` (issue 13, §3).
 
-    python benchmarks/cpu_throughput.py [--models traonet,fno] [--threads 1 2]
+    python benchmarks/cost/cpu_throughput.py [--models traonet,fno] [--threads 1 2]
                                         [--batch 50] [--repeats 20] [--modes eager]
 
 Two trainings side by side, one thread each (how this project trains on 2 cores), are

@@ -19,7 +19,7 @@ paper column.
 Run it with::
 
     nh-operators evaluate --test paper-test.h5 --run final/traonet-paper ... --out eval/paper
-    python benchmarks/like_for_like.py --report eval/paper/report.json
+    python benchmarks/paper/like_for_like.py --report eval/paper/report.json
 """
 
 import argparse

@@ -15,7 +15,7 @@ whose true L_tot exceeds tol.
 
 Run it with::
 
-    python benchmarks/solve_contract.py --test test.h5 [--n-test 1000] [--n-ood 200]
+    python benchmarks/promise/solve_contract.py --test test.h5 [--n-test 1000] [--n-ood 200]
         [--out solve_contract.json]
 """
 

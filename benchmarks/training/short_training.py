@@ -2,7 +2,7 @@
 
     nh-operators generate --preset standard --out standard.h5
     nh-operators generate --preset test --out test.h5
-    python benchmarks/short_training.py --data standard.h5 --test test.h5 \
+    python benchmarks/training/short_training.py --data standard.h5 --test test.h5 \
         --epochs 10 --preset cpu --out runs/short
 
 Each model trains through ``nh_operators.train`` (DeepXDE's loop, the paper's

@@ -1,9 +1,9 @@
 """Ablation of PhaseONet, the fast operator: one change per row, cost and accuracy.
 
-    python benchmarks/fast_operator.py train --dataset paper --data-dir DIR --out DIR
+    python benchmarks/cost/fast_operator.py train --dataset paper --data-dir DIR --out DIR
                                              [--rows base,width128] [--epochs 30]
-    python benchmarks/fast_operator.py report --dataset paper --data-dir DIR --out DIR
-    python benchmarks/fast_operator.py solve --dataset paper [--size 10000] [--seed 4242]
+    python benchmarks/cost/fast_operator.py report --dataset paper --data-dir DIR --out DIR
+    python benchmarks/cost/fast_operator.py solve --dataset paper [--size 10000] [--seed 4242]
 
 ``train`` trains the asked rows (all by default) through ``nh.train`` (DeepXDE's loop)
 into ``OUT/<dataset>-<row>/``, one thread per process: run two processes with

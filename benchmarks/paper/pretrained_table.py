@@ -17,7 +17,7 @@ With ``--figure FILE.png`` it also draws the loss-against-training-time curves.
 
 Run it with::
 
-    python benchmarks/pretrained_table.py [--figure docs/training_curves.png]
+    python benchmarks/paper/pretrained_table.py [--figure docs/training_curves.png]
 """
 
 import argparse
