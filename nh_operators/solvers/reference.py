@@ -41,9 +41,8 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
         TypeError: a potential that is neither.
 
     Example:
-        >>> from nh_operators.potentials import AnalyticPotential
-        >>> sho = AnalyticPotential("sho", lambda q: 8 * (q - 0.5) ** 2,
-        ...                         lambda q: 16 * (q - 0.5))
+        >>> from nh_operators.potentials import PHYSICAL_POTENTIALS
+        >>> sho = PHYSICAL_POTENTIALS["sho"]  # V = 8 (q - 1/2)², ω = 4
         >>> q, p = reference_solve(sho, [0.25], q0=0.5, p0=1.0)  # q = 1/2 + sin(4t)/4
         >>> round(float(q[0]), 10), round(float(0.5 + np.sin(1.0) / 4), 10)
         (0.7103677462, 0.7103677462)
