@@ -190,10 +190,13 @@ class TimeDecoder(nn.Module):
         self.final_norm = nn.LayerNorm(d_model) if norm_first else None
         self.head = nn.Linear(d_model, n_outputs)
 
-    def forward(self, t, memory):
-        """t (M, 1), memory (B, m, d) → (B, M, n_outputs)."""
+    def forward(self, t, memory, query_bias=None):
+        """t (M, 1), memory (B, m, d) → (B, M, n_outputs); ``query_bias`` (B, 1, d), when
+        given, is added to every time token of its row."""
         tokens = self.embed(t) + sinusoidal(t[:, 0] * self.time_scale, self.d_model)
         tokens = tokens.expand(memory.shape[0], -1, -1)
+        if query_bias is not None:
+            tokens = tokens + query_bias
         if self.query_attention:
             h = self.decoder(tokens, memory)
         else:
@@ -237,6 +240,20 @@ class OperatorNet(NN):
 
     def _forward(self, V, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _state_modules(self, d_model, state_in_queries=False):
+        """The state's embeddings of the sequence networks: one encoder token, and with
+        ``state_in_queries`` a bias of every decoder time token."""
+        if state_in_queries and not self.initial_state:
+            raise ValueError("state_in_queries needs initial_state=True")
+        self.state_in_queries = bool(state_in_queries)
+        if self.initial_state:
+            self.state_embedding = StateEmbedding(d_model)
+        if self.state_in_queries:
+            self.query_state = StateEmbedding(d_model)
+
+    def _query_bias(self, state):
+        return self.query_state(state) if getattr(self, "state_in_queries", False) else None
 
     def _sensors_and_state(self, V):
         """(sensors (B, m), state (B, 2) or None) of an input V."""

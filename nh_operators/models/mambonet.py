@@ -3,7 +3,7 @@
 import torch
 from torch import nn
 
-from ._layers import OperatorNet, SensorEmbedding, StateEmbedding, TimeDecoder
+from ._layers import OperatorNet, SensorEmbedding, TimeDecoder
 from .mamba import Mamba
 
 __all__ = ["MambONet"]
@@ -44,6 +44,7 @@ class MambONet(OperatorNet):
             :class:`~nh_operators.models.TraONet` (the last two for the decoder).
         initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), embedded
             as one token at the start of the scan (default False: rest at q = 0).
+        state_in_queries: as :class:`~nh_operators.models.TraONet`.
 
     Example:
         >>> import torch
@@ -58,11 +59,11 @@ class MambONet(OperatorNet):
     def __init__(self, d_model=128, num_mamba_layers=4, nhead=4, num_decoder_layers=4,
                  dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
                  n_sensors=100, n_outputs=2, time_scale=99 / 2, query_attention=True,
-                 norm_first=False, activation="relu", initial_state=False):
+                 norm_first=False, activation="relu", initial_state=False,
+                 state_in_queries=False):
         super().__init__()
         self.initial_state = bool(initial_state)
-        if self.initial_state:
-            self.state_embedding = StateEmbedding(d_model)
+        self._state_modules(d_model, state_in_queries)
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.query_coupled = bool(query_attention)
@@ -83,4 +84,4 @@ class MambONet(OperatorNet):
             h = torch.cat([self.state_embedding(state), h], dim=1)
         for block in self.blocks:
             h = block(h)
-        return self.decoder(t, self.norm(h))
+        return self.decoder(t, self.norm(h), self._query_bias(state))

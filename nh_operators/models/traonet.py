@@ -4,8 +4,7 @@ import math
 
 import torch
 
-from ._layers import (OperatorNet, SensorEmbedding, StateEmbedding, TimeDecoder,
-                      transformer_encoder)
+from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
 
 #: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],
 #: and |p| ≤ sqrt(2 (V0 − min V)) ≤ sqrt(8) for the generator's V ≥ −2.
@@ -44,6 +43,9 @@ class TraONet(OperatorNet):
         initial_state: False (default): release at rest at q = 0, the paper's scene.
             True: V carries (q0, p0) after the sensors, (B, m + 2), embedded as one
             more encoder token (Linear(2, d), no position) in front of the sensors.
+        state_in_queries: with ``initial_state``, also add a second Linear(2, d) of the
+            state to every time token of the decoder, so each query reads the state
+            directly (default False).
 
     Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
 
@@ -59,11 +61,10 @@ class TraONet(OperatorNet):
     def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
                  dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2,
                  query_attention=True, norm_first=False, activation="relu",
-                 scaled_outputs=False, initial_state=False):
+                 scaled_outputs=False, initial_state=False, state_in_queries=False):
         super().__init__()
         self.initial_state = bool(initial_state)
-        if self.initial_state:
-            self.state_embedding = StateEmbedding(d_model)
+        self._state_modules(d_model, state_in_queries)
         self.n_sensors = n_sensors
         self.n_outputs = n_outputs
         self.query_coupled = bool(query_attention)
@@ -82,7 +83,7 @@ class TraONet(OperatorNet):
         tokens = self.embedding(V)
         if state is not None:
             tokens = torch.cat([self.state_embedding(state), tokens], dim=1)
-        y = self.decoder(t, self.encoder(tokens))
+        y = self.decoder(t, self.encoder(tokens), self._query_bias(state))
         if self.scaled_outputs:
             y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
         return y

@@ -60,6 +60,20 @@ def test_the_wrong_width_is_named(name):
         tiny(name)((_with_state(V), t))
 
 
+@pytest.mark.parametrize("name", ["traonet", "mambonet"])
+def test_state_in_queries_reaches_every_time_token(name):
+    net = tiny(name, seed=5, initial_state=True, state_in_queries=True).eval()
+    base = tiny(name, seed=5, initial_state=True).eval()
+    assert set(net.state_dict()) - set(base.state_dict()) == {
+        "query_state.embed.weight", "query_state.embed.bias"}
+    V, t = inputs(batch=2)
+    x = _with_state(V).requires_grad_(True)
+    (grad,) = torch.autograd.grad(net((x, t))[:, 0].sum(), x)
+    assert torch.all(grad[:, 100:] != 0)
+    with pytest.raises(ValueError, match="state_in_queries needs initial_state=True"):
+        tiny(name, state_in_queries=True)
+
+
 def test_phaseonet_says_it_has_no_state_option():
     with pytest.raises(ValueError, match=r"phaseonet has no argument\(s\) \['initial_state'\]"):
         nh.build_model("phaseonet", "cpu", initial_state=True)
