@@ -3,7 +3,7 @@
 A Hamiltonian flow is symplectic: its Jacobian J = ∂(q(t), p(t))/∂(q0, p0) satisfies
 JᵀΩJ = Ω with Ω = [[0, 1], [−1, 0]]. With one degree of freedom J is 2×2 and
 JᵀΩJ = det(J) Ω for every J, so the symplectic defect ‖JᵀΩJ − Ω‖_F is exactly
-√2 |det J − 1|: here symplecticity *is* area preservation, and one number measures both.
+√2 abs(det J − 1): here symplecticity *is* area preservation, and one number measures both.
 The flow is also time-reversible: run to t, reverse the momentum, run t again, reverse it
 again, and the start comes back.
 
@@ -51,7 +51,7 @@ def flow_jacobian(flow, q0, p0, eps=1e-4):
 
 
 def area_defect(J):
-    """|det J − 1| of Jacobians (..., 2, 2): 0 for an area-preserving (symplectic) map."""
+    """abs(det J − 1) of Jacobians (..., 2, 2): 0 for an area-preserving (symplectic) map."""
     J = np.asarray(J, dtype=np.float64)
     return np.abs(J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0] - 1.0)
 
