@@ -25,6 +25,7 @@ Run it with::
 
 import argparse
 import json
+import os
 import time
 
 import numpy as np
@@ -127,7 +128,8 @@ def main():
         for proj in ([None, project] if args.project else [None]):
             (q, p), s = timed(lambda: network_rollout(net, V, q0, p0, windows, proj),
                               args.repeats)
-            name = f"{cfg['model']} ({run})" + (", energy projected" if proj else "")
+            name = (f"{cfg['model']} ({os.path.basename(os.path.normpath(run))})"
+                    + (", energy projected" if proj else ""))
             rows.append(record(name, q, p, s))
     for name, method, substeps in CLASSICAL:
         (q, p), s = timed(lambda: nh.integrate_sensors(
