@@ -85,3 +85,28 @@ def test_energy_states_on_generator_potentials_cover_the_energies():
     v_min = src.values_at(np.broadcast_to(np.linspace(0, 1, 1025), (300, 1025))).min(axis=1)
     level = (energy - v_min) / (V0 - v_min)
     assert np.all(np.histogram(level[~near], bins=10, range=(0, 1))[0] > 0)
+
+
+def test_an_interrupted_states_dataset_resumes_to_the_same_bytes(tmp_path, monkeypatch):
+    import nh_operators.data.generate as generate_module
+
+    whole = generate_dataset(30, seed=6, path=tmp_path / "whole.h5", chunk=10,
+                             progress=False, states="energy")
+    original, calls = generate_module._Source.take, {"n": 0}
+
+    def interrupted(self, n, drops=None):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return original(self, n, drops)
+
+    monkeypatch.setattr(generate_module._Source, "take", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        generate_dataset(30, seed=6, path=tmp_path / "cut.h5", chunk=10, progress=False,
+                         states="energy")
+    monkeypatch.setattr(generate_module._Source, "take", original)
+    resumed = generate_dataset(30, seed=6, path=tmp_path / "cut.h5", chunk=10,
+                               progress=False, states="energy")
+    for name in ("q0", "p0", "near_separatrix", "q", "p"):
+        np.testing.assert_array_equal(getattr(resumed, name), getattr(whole, name))
+    assert resumed.checksum == whole.checksum
