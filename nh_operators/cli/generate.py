@@ -17,7 +17,8 @@ PRESETS = {
     "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
                    "skip": 1_000},
 }
-for _name in ("alg1-standard", "alg1-test", "paper-standard", "paper-test"):
+for _name in ("alg1-standard", "alg1-extended", "alg1-test", "paper-standard",
+              "paper-extended", "paper-test"):
     # the same potentials, each from its own bounded state stratified by energy
     _family, _split = _name.split("-")
     PRESETS[f"{_family}-states-{_split}"] = {**PRESETS[_name], "states": "energy"}

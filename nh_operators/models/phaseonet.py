@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from ._layers import OperatorNet
+from ._orbit import SensorSpline, orbit
 
 __all__ = ["PhaseONet", "period_quadrature"]
 
@@ -89,10 +90,19 @@ class PhaseONet(OperatorNet):
             πmt/``horizon``) and the period is only an input feature (times past
             ``horizon`` take the last node's value).
         horizon: the time grid's end for ``head="time"`` (default 2).
+        initial_state: False (default): released at rest at q = 0, as above. True: V
+            carries (q0, p0) after the sensors, and the network works in the coordinates
+            of the orbit through that state (:mod:`nh_operators.models._orbit`): turning
+            points a < b, period T and starting phase u0 by quadrature and bisection of
+            the sensor spline in float64; the MLP reads U = E − V at the ``nodes``
+            quadrature points, scaled by its maximum (the orbit's shape in phase depends
+            on U only up to a scale), and log T; and q = a + (b − a) Q(h),
+            p = ± (b − a) / T · P(h) at the phase u = u0 + t / T. Q and P start at the
+            harmonic orbit, (1 − cos 2πh)/2 and π sin 2πh. Phase head only.
 
     Input ``(V, t)``: V (B, m) with V0 at both walls and V < V0 inside (the network
-    clamps V0 − V at 1e-12; out-of-domain input is the domain check's job); t (M, 1).
-    Output (B, M, n_outputs).
+    clamps V0 − V at 1e-12; out-of-domain input is the domain check's job), or
+    (B, m + 2) with ``initial_state``; t (M, 1). Output (B, M, n_outputs).
 
     Example:
         >>> import torch
@@ -105,10 +115,14 @@ class PhaseONet(OperatorNet):
     query_coupled = False
 
     def __init__(self, width=128, depth=2, basis=32, grid=256, nodes=64, activation="gelu",
-                 n_sensors=100, n_outputs=2, head="phase", horizon=2.0):
+                 n_sensors=100, n_outputs=2, head="phase", horizon=2.0, initial_state=False):
         super().__init__()
         if head not in ("phase", "time"):
             raise ValueError(f"head must be 'phase' or 'time', got {head!r}")
+        if initial_state and (head != "phase" or n_outputs != 2):
+            raise ValueError("initial_state=True needs head='phase' and n_outputs=2 (the "
+                             "orbit's phase gives the sign of p)")
+        self.initial_state = bool(initial_state)
         if grid < 2 or basis < 1 or depth < 1 or width < 1:
             raise ValueError(f"need grid ≥ 2 and positive basis, depth and width; got "
                              f"grid={grid}, basis={basis}, depth={depth}, width={width}")
@@ -135,12 +149,17 @@ class PhaseONet(OperatorNet):
         # Q starts at the harmonic orbit (1 − cos 2πh)/2, its correction scaled by 0.1
         # so that the first steps do not swamp it; P starts at zero.
         base = (1 - np.cos(angle)) / 2 if head == "phase" else np.zeros(grid)
-        shift = np.stack([base, np.zeros(grid)])[:n_outputs, None, :]   # (k, 1, grid)
+        speed = np.pi * np.sin(angle) if self.initial_state else np.zeros(grid)
+        shift = np.stack([base, speed])[:n_outputs, None, :]   # (k, 1, grid)
         self.register_buffer("out_shift", torch.tensor(shift, dtype=torch.float32),
                              persistent=False)
         self.register_buffer("out_scale", torch.tensor([0.1, 1.0])[:n_outputs, None, None],
                              persistent=False)
-        layers, d = [], n_sensors + 1
+        layers, d = [], (nodes if self.initial_state else n_sensors) + 1
+        if self.initial_state:
+            s, w = np.polynomial.legendre.leggauss(nodes)
+            self._nodes = (torch.tensor((s + 1) / 2), torch.tensor(w / 2))
+            self._spline = SensorSpline(n_sensors)
         for _ in range(depth):
             layers += [torch.nn.Linear(d, width), acts[activation]()]
             d = width
@@ -155,9 +174,22 @@ class PhaseONet(OperatorNet):
         squared_speed = torch.addmm(bias, V.to(torch.float64), matrix).clamp_(min=2e-12)
         return torch.rsqrt_(squared_speed) @ (2 * weights)
 
+    def state_orbit(self, V):
+        """The orbit through each row's state (``initial_state`` networks): a dict of
+        float64 tensors a, b, E, T, u0 (B,) and U (B, nodes) (:func:`_orbit.orbit`)."""
+        sensors, state = self._sensors_and_state(V.to(torch.float64))
+        s, w = (a.to(V.device) for a in self._nodes)
+        with torch.no_grad():
+            return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w)
+
     def _forward(self, V, t):
-        T = self.period(V)
-        x = torch.cat([(V0 - V) / 2, torch.log(T).to(V.dtype)[:, None]], dim=1)
+        if self.initial_state:
+            o = self.state_orbit(V)
+            T, shape = o["T"], o["U"] / o["U"].amax(1, keepdim=True)
+            x = torch.cat([shape, torch.log(T)[:, None]], dim=1).to(V.dtype)
+        else:
+            T = self.period(V)
+            x = torch.cat([(V0 - V) / 2, torch.log(T).to(V.dtype)[:, None]], dim=1)
         coeffs = self.branch(x)                                   # (B, k · basis)
         r = self.basis.shape[1]
         # Per output a plain 2-D product and 2-D gathers: contiguous operands are what
@@ -171,8 +203,10 @@ class PhaseONet(OperatorNet):
         else:
             # Phase u = t/T mod 1 in float64 when a time is far enough for float32's
             # 6e-8 relative error to move the phase (|t| > 16).
-            wide = torch.float64 if bool((t.abs() > 16).any()) else coeffs.dtype
-            d = torch.frac(torch.outer(torch.reciprocal(T).to(wide), t[:, 0].to(wide)))
+            wide = (torch.float64 if self.initial_state or bool((t.abs() > 16).any())
+                    else coeffs.dtype)
+            d = torch.frac(torch.outer(torch.reciprocal(T).to(wide), t[:, 0].to(wide))
+                           + (o["u0"][:, None] if self.initial_state else 0.0))
             d = d.sub_(0.5)                              # u − 1/2 ∈ [−1/2, 1/2)
             sign = torch.sign(d).neg_().to(coeffs.dtype)  # p changes sign at T/2
             # grid coordinate of the half-phase 1/2 − |u − 1/2|
@@ -185,4 +219,8 @@ class PhaseONet(OperatorNet):
               for g in shapes]
         if len(ys) == 2 and sign is not None:
             ys[1] = ys[1].mul_(sign) if not torch.is_grad_enabled() else ys[1] * sign
+        if self.initial_state:   # orbit coordinates → q, p
+            L = (o["b"] - o["a"]).to(coeffs.dtype)[:, None]
+            ys = [o["a"].to(coeffs.dtype)[:, None] + L * ys[0],
+                  ys[1] * (L / T.to(coeffs.dtype)[:, None])]
         return torch.stack(ys, dim=-1)

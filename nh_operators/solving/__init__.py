@@ -15,6 +15,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
                  "propagated_error", "raw_estimate", "residuals", "spline_rows"],
     "many": ["ManySolution", "solve_many"],
     "catalog": ["CALIBRATION", "DOMAIN", "WEIGHTS", "available_pretrained", "network_domain",
-                "resolve_pretrained"],
+                "reads_state", "resolve_pretrained"],
     "shipped": ["export_pretrained", "pretrained"],
 })

@@ -36,7 +36,8 @@ import numpy as np
 
 from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
-from .catalog import CALIBRATION, WEIGHTS, available_pretrained, network_domain, resolve_pretrained
+from .catalog import (CALIBRATION, WEIGHTS, available_pretrained, network_domain, reads_state,
+                      resolve_pretrained)
 from .estimate import (acceptance_rate, calibrated, cautious_acceptance_rate, estimate_at,
                        sensor_force)
 
@@ -108,8 +109,9 @@ def _rows(fn):
     return lambda x: np.asarray(fn(x.reshape(-1)), dtype=np.float64).reshape(x.shape)
 
 
-def neural_solve(name, pot, information, t):
-    """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t.
+def neural_solve(name, pot, information, t, q0=0.0, p0=0.0):
+    """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t
+    (from the state (q0, p0): a network that :func:`reads_state`).
 
     Returns:
         (q, p, estimate): the estimate is the calibrated one, or the raw estimate when the
@@ -119,30 +121,36 @@ def neural_solve(name, pot, information, t):
 
     _model(name)  # loads torch first, so that the block below limits its threads too
     with single_threaded():
-        return _neural_solve(name, pot, information, t)
+        q, p, raw = neural_raw(name, pot, information, t, q0, p0)
+        return q, p, float(calibrated(raw, _model(name).calibration))
 
 
-def neural_raw(name, pot, information, t=TIMES):
+def network_input(name, V, q0=0.0, p0=0.0):
+    """The input rows of shipped model ``name``: the sensor values V (N, 100), then
+    (q0, p0) (scalars or (N,)) for a network that :func:`reads_state`."""
+    if not reads_state(name):
+        return V
+    n = len(V)
+    return np.column_stack([V, np.broadcast_to(q0, (n,)), np.broadcast_to(p0, (n,))])
+
+
+def neural_raw(name, pot, information, t=TIMES, q0=0.0, p0=0.0):
     """Model ``name``'s prediction at the times ``t`` (the spline through its prediction
-    on :data:`TIMES`) and its uncalibrated estimate there
+    on :data:`TIMES`) from (q0, p0), and its uncalibrated estimate there
     (:func:`~nh_operators.solving.estimate.estimate_at`): (q, p, raw), q and p (M,)."""
     from ..models import predict
 
     V = _sensor_values(pot, information)
-    q, p = predict(_model(name).net, V[None], TIMES, batch_size=1)
+    q, p = predict(_model(name).net, network_input(name, V[None], q0, p0), TIMES,
+                   batch_size=1)
     if information == "sensors":
         force = sensor_force(V)
     else:
         force = (_rows(pot.V), _rows(pot.dV))
-    qa, pa, raw = estimate_at(q, p, *force, np.asarray(t, dtype=np.float64).reshape(-1))
+    qa, pa, raw = estimate_at(q, p, *force, np.asarray(t, dtype=np.float64).reshape(-1),
+                              q0=q0, p0=p0)
     raw = float(raw[0])
     return qa[0], pa[0], (raw if np.isfinite(raw) else np.inf)  # inf: far outside [0, 1]
-
-
-def _neural_solve(name, pot, information, t):
-    model = _model(name)
-    q, p, raw = neural_raw(name, pot, information, t)
-    return q, p, float(calibrated(raw, model.calibration))
 
 
 #: Which of the calibration's classical timings applies to a kind of input.
@@ -173,15 +181,19 @@ def _neural_seconds(calibration, batched=False):
 
 
 @functools.lru_cache(maxsize=256)
-def _ranked(tol, kind, calibrations, batched=False):
+def _ranked(tol, kind, calibrations, batched=False, states=False):
     """(candidates, notes) for ``tol`` and a kind of input (:data:`_TIMINGS`): the
     networks expected to be cheaper than the classical solve, as (name, expected
     seconds, share) cheapest first; cached per tolerance, kind and calibration
     (``calibrations``: ids, so a new one is seen). ``batched``: compare the per-row
     costs inside ``solve_many`` (a network's batched forward and estimate against the
-    batched classical solve) instead of one call's."""
+    batched classical solve) instead of one call's. ``states``: the networks that read
+    a starting state (:func:`reads_state`, for states other than (0, 0)), else the
+    others."""
     candidates, notes = [], []
     for name in _networks():
+        if reads_state(name) != states:
+            continue
         cal = _calibration(name)
         if cal is None:
             notes.append(f"{name}: not calibrated")
@@ -204,7 +216,7 @@ def _networks():
     return tuple(available_pretrained())
 
 
-def _choose(tol, values, t, kind):
+def _choose(tol, values, t, kind, states=False):
     """The network to try, or None, with the reason in words: the cheapest candidate
     whose domain (:func:`~nh_operators.solving.catalog.network_domain`) holds the input.
     One call tries one network: going on to the next after a rejection cost more than it
@@ -212,12 +224,15 @@ def _choose(tol, values, t, kind):
     again, and a single call has no pilot to tell); ``solve_many``, which learns each
     network's share on its rows from a pilot, goes on to the next.
     ``values()`` gives the sensor values; the costs are weighed first, as they need no
-    evaluation of V."""
+    evaluation of V. ``states``: choose among the networks that read a starting state."""
     from ..potentials import domain_violations, in_domain
 
-    candidates, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()))
+    candidates, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()),
+                                False, states)
     if not candidates:
-        return None, "no network expected to be cheaper (" + "; ".join(notes) + ")"
+        what = "reading a starting state " if states else ""
+        return None, (f"no network {what}expected to be cheaper ("
+                      + ("; ".join(notes) or "none calibrated") + ")")
     if t.min() < 0 or t.max() > TIMES[-1] + 1e-12:
         return None, "times outside [0, 2], where the networks were trained"
     V = values()
@@ -236,8 +251,9 @@ def solve(potential, t, *, tol=None, method="auto", dV=None, q0=0.0, p0=0.0):
 
     Any horizon costs about one period of the orbit: times beyond 2 are answered from
     the period (:mod:`nh_operators.solvers.periodic`), and the estimate includes the
-    phase error of the period. The networks were trained from (0, 0) on [0, 2]; other
-    states and later times are solved classically.
+    phase error of the period. The networks answer t ∈ [0, 2]: from (0, 0) the ones
+    trained at rest, from another state the ones that read a starting state
+    (:func:`~nh_operators.solving.reads_state`); later times are solved classically.
 
     Args:
         potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`, a text
@@ -260,8 +276,8 @@ def solve(potential, t, *, tol=None, method="auto", dV=None, q0=0.0, p0=0.0):
 
     Raises:
         ValueError: a bad potential, times, tolerance, state or method name, times
-            outside [0, 2] or a state other than (0, 0) for a network, or a time beyond
-            what float64 resolves.
+            outside [0, 2] for a network, a state other than (0, 0) for a network that
+            does not read one, or a time beyond what float64 resolves.
         PeriodError: a far horizon on an orbit whose period cannot be found (a
             separatrix).
 
@@ -327,19 +343,17 @@ def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
 
     rest = _rest_at_zero(q0, p0)
     if method in networks:
-        if not rest:
+        if not rest and not reads_state(method):
             raise ValueError(f"{method} was trained from the state (0, 0) only; got (q0, p0) "
-                             f"= ({q0}, {p0}): use method='auto' or 'classical'")
-        return _forced_network(method, pot, information, t, tol, start)
-    if method == "auto" and tol is not None and not rest:
-        reason = ("a state other than (0, 0): the networks were trained from rest at q = 0, "
-                  "so the classical solver")
-    elif method == "auto" and tol is not None:
+                             f"= ({q0}, {p0}): use method='auto', 'classical' or a network "
+                             f"that reads a state ({_state_networks() or 'none shipped'})")
+        return _forced_network(method, pot, information, t, tol, start, q0, p0)
+    if method == "auto" and tol is not None:
         name, reason = _choose(tol, lambda: _sensor_values(pot, information), t,
-                               _input_kind(pot, information))
+                               _input_kind(pot, information), states=not rest)
         if name is not None:
             t0 = time.perf_counter()
-            q, p, estimate = neural_solve(name, pot, information, t)
+            q, p, estimate = neural_solve(name, pot, information, t, q0, p0)
             accepted = estimate <= tol
             tried.append({"method": name, "error_estimate": estimate, "accepted": accepted,
                           "seconds": time.perf_counter() - t0})
@@ -362,14 +376,18 @@ def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
                     time.perf_counter() - start, tol, reason, tried)
 
 
-def _forced_network(name, pot, information, t, tol, start):
+def _state_networks():
+    return [n for n in _networks() if reads_state(n)]
+
+
+def _forced_network(name, pot, information, t, tol, start, q0=0.0, p0=0.0):
     from ..potentials import OutOfDomainWarning, domain_violations
 
     if t.max() > TIMES[-1] + 1e-12:
         raise ValueError(f"{name} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
     for message in domain_violations(_sensor_values(pot, information), network_domain(name)):
         warnings.warn(f"{name}: {message}", OutOfDomainWarning, stacklevel=4)
-    q, p, estimate = neural_solve(name, pot, information, t)
+    q, p, estimate = neural_solve(name, pot, information, t, q0, p0)
     if tol is not None and estimate > tol:
         warnings.warn(f"{name}'s error estimate {estimate:.2g} exceeds tol {tol:g}; use "
                       "method='auto' to fall back to the classical solver", UserWarning,

@@ -77,10 +77,20 @@ def _asked_times(rng):
     return rng.uniform(0.0, TIMES[-1], m)
 
 
-def _batch_ratios(name, pots, sensors, rng, group=20):
+def _states(values, n, rng):
+    """Starting states stratified by energy (:func:`~nh_operators.solvers.energy_states`)
+    of n rows whose V at row i's positions is ``values(x)``: (q0, p0), each (n,)."""
+    from ..solvers import STATE_UNIFORMS, energy_states
+
+    q0, p0, _ = energy_states(values, rng.random((n, STATE_UNIFORMS)))
+    return q0, p0
+
+
+def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
     """true L_tot and raw estimate of model ``name`` on the rows of a batched B-spline
     ``pots`` inside its domain, each group of rows at one random set of asked times;
-    ``sensors``: the input is the sensor values (force and truth: their spline)."""
+    ``sensors``: the input is the sensor values (force and truth: their spline);
+    ``states``: the rows' starting states (q0, p0), for a network that reads one."""
     from ..models import predict
     from ..potentials import in_domain
     from ..solvers import integrate_sensors, reference_solve
@@ -88,23 +98,28 @@ def _batch_ratios(name, pots, sensors, rng, group=20):
     from .catalog import network_domain
     from .estimate import estimate_at
 
+    from .auto_solve import network_input
+
     V = pots.V(SENSORS)
     keep = np.flatnonzero(in_domain(V, network_domain(name)))
     net = _model(name).net
+    q0s, p0s = (np.zeros(len(V)), np.zeros(len(V))) if states is None else states
     true, raw = [], []
     for lo in range(0, keep.size, group):
         rows = keep[lo:lo + group]
         t = _asked_times(rng)
-        q, p = predict(net, V[rows], TIMES)
+        state = {"q0": q0s[rows], "p0": p0s[rows]}
+        q, p = predict(net, network_input(name, V[rows], **state), TIMES)
         if sensors:
-            q_ref, p_ref = integrate_sensors(V[rows], t, substeps=512, check_resolution=False)
+            q_ref, p_ref = integrate_sensors(V[rows], t, substeps=512, check_resolution=False,
+                                             **state)
             force = sensor_force(V[rows])
         else:
             sub = type(pots)(pots.control_q[rows], pots.control_V[rows])
-            q_ref, p_ref = reference_solve(sub, t)
+            q_ref, p_ref = reference_solve(sub, t, **state)
             src = row_source(sub, "exact V")
             force = (src.values_at, lambda x, src=src: -src.forces_at(x))
-        qa, pa, r = estimate_at(q, p, *force, t)
+        qa, pa, r = estimate_at(q, p, *force, t, **state)
         true.append(loss_per_sample(qa, pa, q_ref, p_ref)["L_tot"])
         raw.append(r)
     if not true:
@@ -112,8 +127,9 @@ def _batch_ratios(name, pots, sensors, rng, group=20):
     return np.concatenate(true), np.concatenate(raw), int(V.shape[0])
 
 
-def _ood_ratios(name, n, seed, rng):
-    """Like :func:`_batch_ratios` on :func:`~nh_operators.potentials.ood_potentials`."""
+def _ood_ratios(name, n, seed, rng, states=False):
+    """Like :func:`_batch_ratios` on :func:`~nh_operators.potentials.ood_potentials`
+    (``states``: each from a state stratified by energy)."""
     from ..potentials import in_domain, ood_potentials
     from ..solvers import reference_solve
     from .catalog import network_domain
@@ -123,8 +139,12 @@ def _ood_ratios(name, n, seed, rng):
         if not in_domain(pot.V(SENSORS), network_domain(name)):
             continue
         t = _asked_times(rng)
-        q, p, r = neural_raw(name, pot, "exact V", t)
-        true.append(float(loss_per_sample(q, p, *reference_solve(pot, t))["L_tot"]))
+        state = {}
+        if states:
+            q0, p0 = _states(lambda x, pot=pot: pot.V(x), 1, rng)
+            state = {"q0": float(q0[0]), "p0": float(p0[0])}
+        q, p, r = neural_raw(name, pot, "exact V", t, **state)
+        true.append(float(loss_per_sample(q, p, *reference_solve(pot, t, **state))["L_tot"]))
         raw.append(r)
     return np.array(true), np.array(raw), n
 
@@ -155,17 +175,31 @@ def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
     the other generator, if given) and ``out of distribution``
     (:func:`~nh_operators.potentials.ood_potentials`): each only where the network's
     domain admits it — what ``auto`` would hand the network — and each at random asked
-    times (:func:`_asked_times`), truth at exactly those times.
+    times (:func:`_asked_times`), truth at exactly those times. A network that reads a
+    starting state (:func:`~nh_operators.solving.reads_state`) is calibrated from the
+    dataset's own states (it must have them) and, for the other families, from states
+    stratified by energy (:func:`~nh_operators.solvers.energy_states`).
     """
+    from ..solvers.rows import row_source
+    from .catalog import reads_state
+
     rng = np.random.default_rng(seed)
     pots = dataset.potentials()
-    out = {"in distribution": _batch_ratios(name, pots, False, rng)}
+    states = reads_state(name)
+    if states and getattr(dataset, "q0", None) is None:
+        raise ValueError(f"{name} reads a starting state: calibrate it on a dataset with "
+                         "states (nh-operators generate --states energy)")
+    own = (dataset.q0, dataset.p0) if states else None
+    out = {"in distribution": _batch_ratios(name, pots, False, rng, states=own)}
     head = type(pots)(pots.control_q[:n_sensors], pots.control_V[:n_sensors])
-    out["sensors"] = _batch_ratios(name, head, True, rng)
+    out["sensors"] = _batch_ratios(name, head, True, rng, states=own and (
+        own[0][:n_sensors], own[1][:n_sensors]))
     if other is not None:
-        out["other distribution"] = _batch_ratios(name, other, False, rng)
+        drawn = _states(row_source(other, "exact V").values_at, len(other.control_q),
+                        rng) if states else None
+        out["other distribution"] = _batch_ratios(name, other, False, rng, states=drawn)
     if n_ood:
-        out["out of distribution"] = _ood_ratios(name, n_ood, ood_seed, rng)
+        out["out of distribution"] = _ood_ratios(name, n_ood, ood_seed, rng, states)
     return out
 
 
@@ -209,7 +243,7 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         ``device``.
     """
     from ..data import load_dataset
-    from .catalog import resolve_pretrained
+    from .catalog import reads_state, resolve_pretrained
 
     name = resolve_pretrained(name)
     if not hasattr(dataset, "V"):
@@ -222,7 +256,7 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     fams = calibration_families(name, dataset, other=other, n_ood=n_ood, ood_seed=ood_seed)
     result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
               dataset.checksum, "ood_seed": ood_seed, "limits": list(LIMITS),
-              "families": {}}
+              "families": {}, "initial_state": reads_state(name)}
     bounds = [[] for _ in range(len(LIMITS) + 1)]
     for fam, (true, raw, drawn) in fams.items():
         ratio = true / np.maximum(raw, 1e-300)

@@ -4,7 +4,9 @@ of each (torch-free).
 A shipped model is a folder ``weights/NAME``. Its name says the data it was trained on:
 ``MODEL-paper`` on ``paper-standard`` (the distribution of the paper's tables) and
 ``MODEL-alg1`` on ``alg1-standard`` (Algorithm 1 as printed); ``phaseonet-*`` on the
-``-extended`` presets (100,000 potentials) of the same distributions. A bare model name
+``-extended`` presets (100,000 potentials) of the same distributions;
+``MODEL-paper-states`` on ``paper-states-extended``, from a starting state stratified by
+energy (it reads (q0, p0) after the sensors: :func:`reads_state`). A bare model name
 (``"traonet"``) means its ``-alg1`` weights, as earlier releases shipped.
 """
 
@@ -16,7 +18,7 @@ from ..potentials import GENERATOR_DOMAIN
 from ..training.files import CHECKPOINT
 
 __all__ = ["WEIGHTS", "CALIBRATION", "DOMAIN", "available_pretrained", "resolve_pretrained",
-           "network_domain"]
+           "network_domain", "reads_state"]
 
 #: Folder of the shipped weights, one sub-folder per model.
 WEIGHTS = Path(__file__).parent / "weights"
@@ -76,3 +78,18 @@ def network_domain(name):
     domain = json.loads(path.read_text())
     domain["V_range"] = tuple(domain["V_range"])
     return domain
+
+
+@functools.lru_cache(maxsize=None)
+def reads_state(name):
+    """Whether shipped model ``name`` takes a starting state (q0, p0) after the sensors
+    (its config's ``arch`` has ``initial_state``); read from ``config.json``, torch-free.
+
+    Example:
+        >>> reads_state("traonet-paper")
+        False
+    """
+    path = WEIGHTS / name / "config.json"
+    if not path.is_file():
+        return False
+    return bool(json.loads(path.read_text()).get("arch", {}).get("initial_state", False))

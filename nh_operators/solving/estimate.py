@@ -153,7 +153,7 @@ def _at_matrices(t_bytes, at_bytes):
     return values, integrals
 
 
-def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
+def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES, *, q0=0.0, p0=0.0):
     """A prediction on the grid ``t`` at the asked times ``at``, and its estimated L_tot.
 
     The prediction between grid times is the cubic spline through the grid values (what
@@ -177,6 +177,8 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
             (V″ over each grid interval is the secant of dV/dq, :func:`_curvature`).
         at: asked times in [t[0], t[-1]], (M,) for every row or (N, M) per row.
         t: (K,) the grid (default :data:`TIMES`).
+        q0, p0: the starting state, scalars or (N,) (default (0, 0)): the defect is
+            D_q = q̂ − q0 − ∫ p̂, D_p = p̂ − p0 + ∫ V′(q̂).
 
     Returns:
         (q_at, p_at, raw): (N, M) each, and the (N,) uncalibrated estimate at ``at``.
@@ -210,11 +212,13 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES):
         return np.stack([y[i] @ mats[i][k].T for i in range(len(y))])
 
     integrate = _integration_matrix(t.tobytes()).T
-    d_q, d_p = q - p @ integrate, p + force @ integrate
+    q0 = np.reshape(np.asarray(q0, dtype=np.float64), (-1, 1))
+    p0 = np.reshape(np.asarray(p0, dtype=np.float64), (-1, 1))
+    d_q, d_p = q - q0 - p @ integrate, p - p0 + force @ integrate
     w_q, w_p = propagated_error(d_q, d_p, _curvature(dV_rows, q, force), t)
     q_at, p_at = apply(q, 0), apply(p, 0)
-    here = 0.5 * ((q_at - apply(p, 1) + apply(w_q, 0)) ** 2
-                  + (p_at + apply(force, 1) + apply(w_p, 0)) ** 2)
+    here = 0.5 * ((q_at - q0 - apply(p, 1) + apply(w_q, 0)) ** 2
+                  + (p_at - p0 + apply(force, 1) + apply(w_p, 0)) ** 2)
     running = np.maximum.accumulate(0.5 * ((d_q + w_q) ** 2 + (d_p + w_p) ** 2), axis=1)
     last = np.clip(np.searchsorted(t, rows, side="right") - 1, 0, t.size - 1)
     behind = np.take_along_axis(running, last, axis=1)

@@ -3,8 +3,9 @@
 A scene (an animation, a parameter sweep, an ensemble) is N rows, each a potential with
 its own starting state (q0, p0) and its own times. :func:`solve_many` chooses per row,
 as :func:`~nh_operators.solve` would for that row alone: with ``method="auto"`` and a
-tolerance, a shipped network is tried on the rows where :func:`solve` would try it (the
-state (0, 0), times in [0, 2], sensor values inside its domain), each row going to
+tolerance, a shipped network is tried on the rows where :func:`solve` would try it (times
+in [0, 2], sensor values inside its domain; the rows at (0, 0) go to the networks trained
+at rest, the others to the networks that read a starting state), each row going to
 the cheapest network whose domain holds it (and on to the next where its estimate fails;
 a network offered many rows first answers a pilot of :data:`PILOT` and goes on only if
 the share it accepted there pays for its cost), its prediction kept where its own
@@ -28,8 +29,8 @@ from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
 from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _classical_seconds, _model,
-                         _neural_seconds, _ranked, _solve)
-from .catalog import network_domain
+                         _neural_seconds, _ranked, _solve, network_input)
+from .catalog import network_domain, reads_state
 from .estimate import calibrated, estimate_at, sensor_force
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
@@ -116,13 +117,16 @@ def _bar(total, progress):
     return tqdm(total=total, unit="row", desc="solve_many")
 
 
-def _network_rows(name, V, src, t, rows, tol):
-    """Predict rows ``rows`` with shipped model ``name``; (q, p, estimate) of those rows
-    at their asked times (the estimate there too: :func:`estimate_at`)."""
+def _network_rows(name, V, src, t, rows, tol, q0s=0.0, p0s=0.0):
+    """Predict rows ``rows`` with shipped model ``name`` from their states (q0s, p0s:
+    scalars or one per row of V); (q, p, estimate) of those rows at their asked times
+    (the estimate there too: :func:`estimate_at`)."""
     from ..models import predict
 
     model = _model(name)
-    q, p = predict(model.net, V[rows], TIMES)
+    q0s, p0s = (np.broadcast_to(np.asarray(a, dtype=np.float64), (len(V),))[rows]
+                for a in (q0s, p0s))
+    q, p = predict(model.net, network_input(name, V[rows], q0s, p0s), TIMES)
     if src is None:
         force = sensor_force(V[rows])
     else:
@@ -135,7 +139,7 @@ def _network_rows(name, V, src, t, rows, tol):
             return -src.forces_at(x, sub)
 
         force = (values, slopes)
-    qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows])
+    qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows], q0=q0s, p0=p0s)
     estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration), np.inf)
     return qa, pa, estimate
 
@@ -214,7 +218,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
     neural = np.zeros(n, dtype=bool)
     rest = (q0s == 0.0) & (p0s == 0.0)
     if method in networks:
-        if not rest.all():
+        if not rest.all() and not reads_state(method):
             bad = int(np.flatnonzero(~rest)[0])
             raise ValueError(f"{method} was trained from the state (0, 0) only; row {bad} "
                              f"starts at ({q0s[bad]:g}, {p0s[bad]:g})")
@@ -223,19 +227,23 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         names = [method]
     elif method == "auto" and tol is not None:
         kind = "sensors" if V is not None else "bspline"
-        candidates = _ranked(tol, kind, tuple(id(_calibration(nn)) for nn in networks),
-                             True)[0]
-        names = [c[0] for c in candidates]
+        ids = tuple(id(_calibration(nn)) for nn in networks)
+        names = [c[0] for states in (False, True)   # at rest, then from other states
+                 for c in _ranked(tol, kind, ids, True, states)[0]]
     else:
         names = []
     if names:
         values = V if V is not None else potentials.V(SENSORS)
         times_ok = t.max(axis=-1) <= TIMES[-1] + 1e-12
-        free = rest & np.broadcast_to(times_ok, (n,))
+        free = np.broadcast_to(times_ok, (n,)).copy()
         # cheapest first; a row whose estimate one network fails goes on to the next
         # candidate whose domain holds it (each is expected to save time on its own)
         for name in names:
-            ok = free & in_domain(values, network_domain(name)) if method == "auto" else free
+            if method == "auto":   # a network for states answers the rows not at rest
+                mine = ~rest if reads_state(name) else rest
+                ok = free & mine & in_domain(values, network_domain(name))
+            else:
+                ok = free
             rows = np.flatnonzero(ok)
             if not rows.size:
                 continue
@@ -250,7 +258,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
             for part in (rows, rest_rows):
                 if not part.size:
                     continue
-                qn, pn, est = _network_rows(name, values, src_rows, t, part, target)
+                qn, pn, est = _network_rows(name, values, src_rows, t, part, target, q0s, p0s)
                 take = est <= target if method == "auto" else np.ones(part.size, dtype=bool)
                 q_out[part[take]], p_out[part[take]] = qn[take], pn[take]
                 estimate[part[take]] = est[take]

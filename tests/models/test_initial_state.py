@@ -74,11 +74,6 @@ def test_state_in_queries_reaches_every_time_token(name):
         tiny(name, state_in_queries=True)
 
 
-def test_phaseonet_says_it_has_no_state_option():
-    with pytest.raises(ValueError, match=r"phaseonet has no argument\(s\) \['initial_state'\]"):
-        nh.build_model("phaseonet", "cpu", initial_state=True)
-
-
 @pytest.fixture(scope="module")
 def states_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("states") / "s.h5"

@@ -201,3 +201,27 @@ def test_the_estimate_of_nonlinear_orbits_run_too_fast(name):
         _, _, raw = estimate_at(q[None], p[None], pot.V, pot.dV, nh.TIMES)
         true = loss_per_sample(q, p, *nh.reference_solve(pot, nh.TIMES))["L_tot"]
         assert 0.7 * true < raw[0] < 5 * true, raw[0] / true
+
+
+def test_the_estimate_from_a_state_measures_the_defect_against_that_state():
+    """An exact trajectory from (q0, p0) has no defect against (q0, p0) (1e-10 here: the
+    spline quadrature of the 100-point grid), and a large one
+    against the rest state; the same orbit run 1 % fast from that state is estimated
+    within first order of its true error, as from rest."""
+    from nh_operators.solving import estimate_at
+
+    pot = nh.PHYSICAL_POTENTIALS["double_well"]
+    q0, p0 = 0.3, -0.8
+    q, p = nh.reference_solve(pot, nh.TIMES, q0=q0, p0=p0)
+    force = (lambda x: pot.V(x)), (lambda x: pot.dV(x))
+    at = np.array([0.4, 1.1, 1.9])
+    assert estimate_at(q[None], p[None], *force, at, q0=q0, p0=p0)[2][0] < 1e-8
+    assert estimate_at(q[None], p[None], *force, at)[2][0] > 1e-2
+    # rows with their own states at once
+    rows = estimate_at(np.stack([q, q]), np.stack([p, p]), *force, at, q0=[q0, 0.0],
+                       p0=[p0, 0.0])[2]
+    assert rows[0] < 1e-8 < 1e-2 < rows[1]
+    fast_q, fast_p = nh.reference_solve(pot, 1.01 * nh.TIMES, q0=q0, p0=p0)
+    qa, pa, raw = estimate_at(fast_q[None], fast_p[None], *force, at, q0=q0, p0=p0)
+    true = loss_per_sample(qa, pa, *nh.reference_solve(pot, at, q0=q0, p0=p0))["L_tot"][0]
+    assert 0.5 * true < raw[0] < 16 * true, raw[0] / true

@@ -1,0 +1,141 @@
+"""The orbit through a state (q0, p0) in the sensor spline of V, in float64 torch.
+
+A bounded orbit of energy E = p0²/2 + V(q0) runs between the turning points a < q0 < b
+of the connected part of {V < E} that holds q0, with period
+T = 2 ∫_a^b dq / sqrt(2 (E − V)); the state sits at the phase u0 = τ0 / T of that orbit
+(τ0 the time from a to q0; u0 = 1 − τ0 / T when p0 < 0). With q = a + L (1 − cos πs)/2,
+L = b − a, the end-point singularities cancel and Gauss–Legendre in s converges fast, as
+in :func:`~nh_operators.models.phaseonet.period_quadrature` for the rest scene
+(a = 0, b = 1, E = V0). The turning points are bracketed on a fine grid of the spline and
+bisected to float64 precision. Everything here is a function of the input only, so it
+runs without autograd; PhaseONet's ``initial_state`` option reads the orbit's shape off
+``U = E − V`` at the quadrature nodes.
+"""
+
+import math
+
+import numpy as np
+import torch
+
+__all__ = ["SensorSpline", "orbit"]
+
+
+class SensorSpline:
+    """The not-a-knot cubic spline of m uniform sensor values as constant linear maps.
+
+    Args:
+        n_sensors: m.
+        fine: points of the uniform bracketing grid (default 512).
+    """
+
+    def __init__(self, n_sensors=100, fine=512):
+        from scipy.interpolate import CubicSpline  # construction only
+
+        x = np.linspace(0.0, 1.0, n_sensors)
+        spline = CubicSpline(x, np.eye(n_sensors), axis=0)
+        self.pieces = n_sensors - 1
+        # (m, pieces · 4): column 4i + k is piece i's coefficient of dx^(3 − k)
+        self._cpu = (torch.tensor(np.transpose(spline.c, (2, 1, 0)).reshape(n_sensors, -1)),
+                     torch.tensor(spline(np.linspace(0.0, 1.0, fine)).T),
+                     torch.linspace(0.0, 1.0, fine, dtype=torch.float64))
+        self._on = {}
+
+    def maps(self, device):
+        """(coefficient map (m, 4·pieces), grid map (m, fine), grid (fine,)) on device."""
+        if device not in self._on:
+            self._on[device] = tuple(a.to(device) for a in self._cpu)
+        return self._on[device]
+
+    def at(self, coefficients, x, derivative=0):
+        """Row i's spline (or its second derivative) at the points x[i]: coefficients
+        (B, 4·pieces) from ``V @ maps()[0]``, x (B, K) → (B, K); outside [0, 1] the end
+        pieces go on."""
+        i = torch.floor(x * self.pieces).clamp_(0, self.pieces - 1)
+        dx = x - i / self.pieces
+        index = (i.long() * 4)[..., None] + torch.arange(4, device=x.device)
+        c = torch.gather(coefficients, 1, index.reshape(len(x), -1)).view(*x.shape, 4)
+        if derivative == 2:
+            return 6 * c[..., 0] * dx + 2 * c[..., 1]
+        return ((c[..., 0] * dx + c[..., 1]) * dx + c[..., 2]) * dx + c[..., 3]
+
+
+def _turning_points(spline, coefficients, values, grid, q0, E, steps):
+    """(a, b): the ends of the part of {V < E} around q0, each bracketed between an
+    outside grid point and the inside end next to it, then bisected ``steps`` times."""
+    n = grid.numel()
+    inside = values < E[:, None]
+    # seed: the inside grid point nearest q0 (or q0 itself when the orbit is narrower
+    # than the grid)
+    distance = (grid[None] - q0[:, None]).abs() + 10.0 * (~inside)
+    nearest = distance.argmin(1)
+    has = inside.any(1)
+    seed = torch.where(has, grid[nearest], q0)
+    index = torch.arange(n, device=grid.device)
+    outside = ~inside
+    before = grid[None] < seed[:, None]
+    left = torch.where(outside & before, index, -1).amax(1)
+    right = torch.where(outside & (grid[None] > seed[:, None]), index, n).amin(1)
+    left_out = grid[left.clamp(min=0)]
+    left_in = torch.minimum(grid[(left + 1).clamp(max=n - 1)], seed)
+    right_out = grid[right.clamp(max=n - 1)]
+    right_in = torch.maximum(grid[(right - 1).clamp(min=0)], seed)
+    inner = torch.stack([left_in, right_in], 1)
+    outer = torch.stack([left_out, right_out], 1)
+    for _ in range(steps):   # invariant: V(inner) < E ≤ V(outer)
+        mid = 0.5 * (inner + outer)
+        below = spline.at(coefficients, mid) < E[:, None]
+        inner = torch.where(below, mid, inner)
+        outer = torch.where(below, outer, mid)
+    ends = 0.5 * (inner + outer)
+    a = torch.where(left < 0, torch.zeros_like(q0), ends[:, 0])   # open to a wall: clamp
+    b = torch.where(right >= n, torch.ones_like(q0), ends[:, 1])
+    return a, b
+
+
+#: Orbits narrower than this (in q) take the harmonic limit of their well's bottom: there
+#: E − V is below ~1e-8 and loses its digits to cancellation.
+NARROW = 1e-4
+
+
+def orbit(spline, V, q0, p0, s, w, steps=48):
+    """The orbit through (q0, p0) in the sensor spline of each row's V.
+
+    Args:
+        spline: a :class:`SensorSpline` for V's sensor count.
+        V: (B, m) sensor values; q0, p0: (B,) states (all float64).
+        s, w: (K,) Gauss–Legendre nodes and weights on [0, 1] (float64).
+        steps: bisection steps per turning point (48: below float64's resolution of a
+            grid cell).
+
+    Returns:
+        dict with a, b, E, T, u0 of shape (B,) and U (B, K) = E − V at the nodes
+        q = a + (b − a)(1 − cos πs)/2 (clamped at 1e-300 above zero). An orbit narrower
+        than :data:`NARROW` gets the harmonic limit: T = 2π / sqrt(V″) at its middle,
+        u0 from q = a + L (1 − cos 2πu)/2, and U ∝ sin²(πs) scaled by V″ L² / 8.
+    """
+    coef_map, grid_map, grid = spline.maps(V.device)
+    coefficients = V @ coef_map
+    E = 0.5 * p0 * p0 + spline.at(coefficients, q0[:, None])[:, 0]
+    a, b = _turning_points(spline, coefficients, V @ grid_map, grid, q0, E, steps)
+    L = (b - a).clamp(min=1e-12)
+
+    def integrand(nodes):   # (B, K) nodes in s ∈ [0, 1] → (dq/ds) / |p|, and E − V
+        q = a[:, None] + L[:, None] * (1 - torch.cos(math.pi * nodes)) / 2
+        U = (E[:, None] - spline.at(coefficients, q)).clamp(min=1e-300)
+        jac = L[:, None] * (math.pi / 2) * torch.sin(math.pi * nodes)
+        return jac * torch.rsqrt(2 * U), U
+
+    f, U = integrand(s[None].expand(len(V), -1))
+    T = 2 * (f @ w)
+    s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
+    f0, _ = integrand(s0[:, None] * s[None])
+    phase = s0 * (f0 @ w) / T
+    narrow = L < NARROW
+    if bool(narrow.any()):
+        curvature = spline.at(coefficients, (0.5 * (a + b))[:, None], 2)[:, 0].clamp(min=1e-12)
+        T = torch.where(narrow, 2 * math.pi * torch.rsqrt(curvature), T)
+        phase = torch.where(narrow, s0 / 2, phase)
+        harmonic = (curvature * L * L / 8)[:, None] * torch.sin(math.pi * s)[None] ** 2
+        U = torch.where(narrow[:, None], harmonic.clamp(min=1e-300), U)
+    u0 = torch.where(p0 >= 0, phase, 1 - phase)
+    return {"a": a, "b": b, "E": E, "T": T, "u0": u0, "U": U}

@@ -1,0 +1,127 @@
+"""PhaseONet from a starting state: the orbit's turning points, period and phase against
+exact and independent ones, the exact harmonic trajectory at zero weights, and the rest
+scene as a special case."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from scipy.integrate import quad
+from scipy.interpolate import CubicSpline
+
+import nh_operators as nh
+from nh_operators.models import PhaseONet, cast_network
+from nh_operators.solvers import STATE_UNIFORMS, energy_states
+from nh_operators.solvers.periodic import orbit_periods
+from nh_operators.solvers.rows import row_source
+
+X = np.linspace(0, 1, 100)
+W = 4.0  # V = 2 − W² q (1 − q) / 2: harmonic about q = 1/2 with frequency W
+
+
+def net64(seed=0, **kw):
+    torch.manual_seed(seed)
+    net = PhaseONet(**{"width": 32, "depth": 2, "basis": 8, "initial_state": True, **kw})
+    return cast_network(net, torch.float64).eval()
+
+
+def rows(V, q0, p0):
+    V = np.atleast_2d(V)
+    n = len(V)
+    return torch.tensor(np.column_stack([V, np.broadcast_to(q0, n), np.broadcast_to(p0, n)]))
+
+
+def sho(q0, p0, t):
+    c = q0 - 0.5
+    return (0.5 + c * np.cos(W * t) + p0 / W * np.sin(W * t),
+            -c * W * np.sin(W * t) + p0 * np.cos(W * t))
+
+
+def test_the_harmonic_orbit_from_any_state_has_exact_ends_period_and_phase():
+    V = 2 - W**2 * X * (1 - X) / 2
+    q0, p0 = np.array([0.3, 0.6, 0.5, 0.0]), np.array([0.5, -0.7, 0.0, 0.0])
+    o = net64().state_orbit(rows(np.repeat(V[None], 4, 0), q0, p0))
+    E = 0.5 * p0**2 + 2 - W**2 * q0 * (1 - q0) / 2
+    amplitude = np.sqrt(2 * (E - (2 - W**2 / 8))) / W
+    np.testing.assert_allclose(o["a"].numpy(), 0.5 - amplitude, atol=1e-13)
+    np.testing.assert_allclose(o["b"].numpy(), 0.5 + amplitude, atol=1e-13)
+    np.testing.assert_allclose(o["T"].numpy(), 2 * math.pi / W, rtol=1e-12)
+    # time from the left end a to q0 on q = 1/2 − A cos(W τ) (row 2 rests at the
+    # bottom: no orbit, and the harmonic limit's period)
+    moving = [0, 1, 3]
+    tau = np.arccos((0.5 - q0[moving]) / amplitude[moving]) / W
+    u0 = np.where(p0[moving] >= 0, tau, 2 * math.pi / W - tau) * W / (2 * math.pi)
+    np.testing.assert_allclose(o["u0"].numpy()[moving], u0, atol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
+def test_period_and_phase_in_a_double_well_match_adaptive_quadrature():
+    # below the barrier: the orbit stays in the left well; above: it spans both
+    V = 2 - 40 * X**2 * (1 - X) ** 2 * (0.1 + 8 * (X - 0.5) ** 2)  # wells near 0.22, 0.78
+    spline = CubicSpline(X, V)
+    for q0, p0 in ((0.2, 0.3), (0.2, -1.2)):
+        o = {k: v.item() for k, v in net64().state_orbit(rows(V, q0, p0)).items()
+             if k != "U"}
+        E, a, b = o["E"], o["a"], o["b"]
+        assert E == pytest.approx(0.5 * p0**2 + spline(q0), abs=1e-14)
+        assert spline(a) == pytest.approx(E, abs=1e-12) and spline(b) == pytest.approx(E, abs=1e-12)
+        assert a < q0 < b and np.all(spline(np.linspace(a, b, 2001)[1:-1]) < E)
+        speed = lambda q: 1 / math.sqrt(2 * (E - spline(q)))  # noqa: E731
+        T = 2 * quad(speed, a, b, epsabs=0, epsrel=1e-12, limit=500)[0]
+        tau = quad(speed, a, q0, epsabs=0, epsrel=1e-12, limit=500)[0]
+        assert o["T"] == pytest.approx(T, rel=1e-7)
+        assert o["u0"] == pytest.approx(tau / T if p0 >= 0 else 1 - tau / T, abs=1e-7)
+    low = net64().state_orbit(rows(V, 0.2, 0.3))
+    assert low["b"].item() < 0.5 < net64().state_orbit(rows(V, 0.2, -1.2))["b"].item()
+
+
+def test_periods_from_generator_states_match_the_orbit_solver():
+    # Independent method: the classical orbit period of the sensor spline from a state.
+    space = nh.BoundedPotentialSpace(seed=5)
+    V = np.asarray(space.eval_batch(space.random(8), nh.SENSORS[:, None]))
+    src = row_source(V, "sensors")
+    q0, p0, _ = energy_states(src.values_at, np.random.default_rng(3).random((8, STATE_UNIFORMS)),
+                              separatrix_share=0.0)
+    ours = net64().state_orbit(rows(V, q0, p0))["T"].numpy()
+    out, status = orbit_periods(src, np.arange(8), q0, p0)
+    ok = status == 0
+    assert ok.sum() >= 6
+    np.testing.assert_allclose(ours[ok], out[ok, 0], rtol=3e-5)
+
+
+def test_zero_coefficients_give_the_exact_harmonic_trajectory_from_a_state():
+    net = net64(grid=2048)
+    with torch.no_grad():
+        net.branch[-1].weight.zero_()
+        net.branch[-1].bias.zero_()
+    V = 2 - W**2 * X * (1 - X) / 2
+    t = np.linspace(0, 5, 61)   # past one period: the phase runs on
+    for q0, p0 in ((0.3, -0.5), (0.45, 0.9), (0.5, 0.0)):
+        with torch.no_grad():
+            y = net((rows(V, q0, p0), torch.tensor(t)[:, None]))[0].numpy()
+        q, p = sho(q0, p0, t)
+        # linear interpolation on 2048 nodes: error ≤ (1/4094)² / 8 · max Q'' · (b − a)
+        np.testing.assert_allclose(y[:, 0], q, atol=5e-7)
+        np.testing.assert_allclose(y[:, 1], p, atol=5e-6)
+
+
+def test_at_rest_the_orbit_is_the_rest_scene():
+    space = nh.BoundedPotentialSpace(seed=6)
+    V = np.asarray(space.eval_batch(space.random(4), nh.SENSORS[:, None]))
+    o = net64().state_orbit(rows(V, 0.0, 0.0))
+    np.testing.assert_allclose(o["a"].numpy(), 0.0, atol=1e-14)
+    np.testing.assert_allclose(o["b"].numpy(), 1.0, atol=1e-14)
+    np.testing.assert_allclose(o["u0"].numpy(), 0.0, atol=1e-14)
+    rest = net64(initial_state=False).period(torch.tensor(V))
+    np.testing.assert_allclose(o["T"].numpy(), rest.numpy(), rtol=1e-12)
+
+
+def test_the_state_option_is_named_where_it_cannot_apply():
+    with pytest.raises(ValueError, match="initial_state=True needs head='phase'"):
+        PhaseONet(initial_state=True, head="time")
+    net = net64()
+    with pytest.raises(ValueError, match=r"V must have shape \(batch, 102\)"):
+        net((torch.zeros(1, 100, dtype=torch.float64), torch.zeros(3, 1, dtype=torch.float64)))
+    built = nh.build_model("phaseonet", "cpu", initial_state=True)
+    assert built.initial_state and built.branch[0].in_features == 64 + 1
