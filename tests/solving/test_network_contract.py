@@ -3,8 +3,8 @@
 ``solve`` or ``solve_many`` accepts — a network's or the classical solver's — meets tol
 against the exact reference, networks do answer some of them, and the same test fails
 when the shipped calibration factors are multiplied by 0.1. The factors are the shipped
-ones; only the cost test is opened (:func:`_patch`), since on this CPU ``auto`` never
-expects a network to be cheaper.
+ones; only the cost test is opened (the ``open_costs`` fixture of ``conftest.py``), since
+on this CPU ``auto`` never expects a network to be cheaper.
 """
 
 import numpy as np
@@ -12,7 +12,6 @@ import pytest
 
 import nh_operators as nh
 from nh_operators.evaluation import loss_per_sample
-from nh_operators.solving import auto_solve
 
 SEED = 9091
 #: Tolerances where networks answer, and where none can.
@@ -50,28 +49,8 @@ def _answers(fresh, rng):
     return np.array(rows, dtype=np.float64)
 
 
-def _patch(monkeypatch, factor_scale=1.0):
-    """The shipped calibrations with a network solve costing nothing, so that ``auto``
-    tries a network wherever its domain admits the input (on this CPU a network is
-    never expected to be cheaper, and the promise must hold wherever it is tried);
-    ``factor_scale`` scales the factor (and the estimates it implies)."""
-    for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = 0.0
-        cal["factor"] *= factor_scale
-        cal["factors"] = [factor_scale * f for f in cal["factors"]]
-        cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]
-        cal["families"] = {fam: dict(f, estimate_quantiles=[factor_scale * v for v in
-                                                             f["estimate_quantiles"]])
-                           if "estimate_quantiles" in f else f
-                           for fam, f in cal["families"].items()}
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
-
-
-def test_every_accepted_answer_meets_tol_and_networks_answer_some(fresh, monkeypatch):
-    _patch(monkeypatch)
+def test_every_accepted_answer_meets_tol_and_networks_answer_some(fresh, open_costs):
+    open_costs()
     rows = _answers(fresh, np.random.default_rng(SEED))
     true, tol, neural = rows[:, 0], rows[:, 1], rows[:, 2].astype(bool)
     assert len(rows) == 2 * len(TOLS) * 130
@@ -81,10 +60,10 @@ def test_every_accepted_answer_meets_tol_and_networks_answer_some(fresh, monkeyp
     assert not neural[tol <= 1e-6].any()
 
 
-def test_a_calibration_far_too_small_is_caught(fresh, monkeypatch):
+def test_a_calibration_far_too_small_is_caught(fresh, open_costs):
     # the issue's test: the shipped factors cut 10× (with the estimate of E + D, 100x
     # was needed; the propagated error is tight enough that 10x shows)
-    _patch(monkeypatch, factor_scale=0.1)
+    open_costs(factor_scale=0.1)
     rows = _answers(fresh, np.random.default_rng(SEED))
     true, tol, neural = rows[:, 0], rows[:, 1], rows[:, 2].astype(bool)
     assert np.any(true[neural] > tol[neural])
