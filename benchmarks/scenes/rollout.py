@@ -7,7 +7,11 @@ at t = 2, 4, ..., ``--horizon``:
 - each ``--run`` (a network trained with ``initial_state=True`` on t ∈ [0, 2]): the
   state at t = 2 becomes the next window's starting state; with ``--project`` also the
   same with an energy projection after every window (p rescaled so that
-  p²/2 + V(q) = E0, V the exact curve; q is kept);
+  p²/2 + V(q) = E0, V the exact curve; q is kept); with ``--direct`` also every window
+  end in one call from the first state (no rollout: for a network whose prediction is
+  periodic in t, PhaseONet's);
+- ``--coarse K``: RK4 and Yoshida-4 also with K times the grid's step (a cost near a
+  network's);
 - RK4, Verlet and Yoshida-4 on the sensors' spline, stepped the whole way;
 - ``solve_many(..., tol)`` on the sensors (its classical path answers far times from one
   period).
@@ -20,7 +24,8 @@ batch). States within 1e-3 of V0 are left out.
 Run it with::
 
     python benchmarks/scenes/rollout.py --data paper-states-test.h5 [--n 100]
-        [--horizon 100] [--run RUN_DIR ...] [--project] [--out rollout.json]
+        [--horizon 100] [--run RUN_DIR ...] [--project] [--direct] [--coarse K ...]
+        [--out rollout.json]
 """
 
 import argparse
@@ -59,6 +64,15 @@ def network_rollout(net, V, q0, p0, windows, project=None):
     return np.stack(qs, 1), np.stack(ps, 1)
 
 
+def network_direct(net, V, q0, p0, ends):
+    """All window ends in one call from the first state: (N, windows) each."""
+    dtype = next(net.parameters()).dtype
+    x = torch.as_tensor(np.column_stack([V, q0, p0]), dtype=dtype)
+    with torch.no_grad():
+        y = net((x, torch.as_tensor(ends, dtype=dtype)[:, None])).double().numpy()
+    return y[..., 0], y[..., 1]
+
+
 def timed(fn, repeats):
     seconds = []
     for _ in range(repeats):
@@ -85,6 +99,10 @@ def main():
     ap.add_argument("--horizon", type=float, default=100.0, help="a multiple of 2")
     ap.add_argument("--run", action="append", default=[])
     ap.add_argument("--project", action="store_true", help="also with energy projection")
+    ap.add_argument("--direct", action="store_true",
+                    help="also every window end in one call (periodic networks)")
+    ap.add_argument("--coarse", type=int, action="append", default=[],
+                    help="also RK4 and Yoshida-4 at K times the grid's step (repeatable)")
     ap.add_argument("--tol", type=float, default=1e-6, help="solve_many's tolerance")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--out")
@@ -131,10 +149,16 @@ def main():
             name = (f"{cfg['model']} ({os.path.basename(os.path.normpath(run))})"
                     + (", energy projected" if proj else ""))
             rows.append(record(name, q, p, s))
-    for name, method, substeps in CLASSICAL:
+        if args.direct:
+            (q, p), s = timed(lambda: network_direct(net, V, q0, p0, ends), args.repeats)
+            name = f"{cfg['model']} ({os.path.basename(os.path.normpath(run))}), direct"
+            rows.append(record(name, q, p, s))
+    coarse = [(f"{name}, step ×{k}", method, substeps, k) for k in args.coarse
+              for name, method, substeps in CLASSICAL if substeps == 1]
+    for name, method, substeps, k in [c + (1,) for c in CLASSICAL] + coarse:
         (q, p), s = timed(lambda: nh.integrate_sensors(
-            V, ends, method, substeps, interval=nh.TIMES[1], check_resolution=False, q0=q0,
-            p0=p0), args.repeats)
+            V, ends, method, substeps, interval=k * nh.TIMES[1], check_resolution=False,
+            q0=q0, p0=p0), args.repeats)
         rows.append(record(name + " (sensors)", q, p, s))
     sol, s = timed(lambda: nh.solve_many(V, ends, q0=q0, p0=p0, tol=args.tol,
                                          method="classical"), args.repeats)

@@ -145,13 +145,23 @@ class NeuralMethod(Method):
         method.run_dir = str(run_dir)
         return method
 
-    def __call__(self, V, t):
+    def __call__(self, V, t, q0=0.0, p0=0.0):
+        """Predict (q, p), each (N, M), for sensor values V (N, 100) at times t, from
+        the starting states (q0, p0) (scalars or (N,); default the rest state (0, 0),
+        the only one a network without ``initial_state`` knows)."""
         from ..models import predict
 
         V = sensor_values(V)
         t = _network_times(self.name, t, self.domain_check)
         if self.domain_check:
             _warn_out_of_domain(self.name, V, self.domain)
+        if getattr(self.net, "initial_state", False):
+            n = len(V)
+            V = np.column_stack([V, np.broadcast_to(np.asarray(q0, dtype=np.float64), (n,)),
+                                 np.broadcast_to(np.asarray(p0, dtype=np.float64), (n,))])
+        elif np.any(np.asarray(q0) != 0) or np.any(np.asarray(p0) != 0):
+            raise ValueError(f"{self.name} was trained from the state (0, 0) only; a network "
+                             "built with initial_state=True reads other states")
         return predict(self.net, V, t, batch_size=self.batch_size)
 
     def synchronize(self):

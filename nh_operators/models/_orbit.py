@@ -54,6 +54,8 @@ class SensorSpline:
         dx = x - i / self.pieces
         index = (i.long() * 4)[..., None] + torch.arange(4, device=x.device)
         c = torch.gather(coefficients, 1, index.reshape(len(x), -1)).view(*x.shape, 4)
+        if derivative == 1:
+            return (3 * c[..., 0] * dx + 2 * c[..., 1]) * dx + c[..., 2]
         if derivative == 2:
             return 6 * c[..., 0] * dx + 2 * c[..., 1]
         return ((c[..., 0] * dx + c[..., 1]) * dx + c[..., 2]) * dx + c[..., 3]
@@ -61,7 +63,28 @@ class SensorSpline:
 
 def _turning_points(spline, coefficients, values, grid, q0, E, steps):
     """(a, b): the ends of the part of {V < E} around q0, each bracketed between an
-    outside grid point and the inside end next to it, then bisected ``steps`` times."""
+    outside grid point and the inside end next to it and bisected ``steps`` times; the
+    ends carry the derivative dx/dE = 1/V′(x) of V(x) = E for autograd (their values are
+    the bisection's), so the flow's Jacobian in (q0, p0) goes through the turning
+    points."""
+    n = grid.numel()
+    with torch.no_grad():
+        inner, outer, left, right = _brackets(spline, coefficients, values, grid, q0,
+                                              E.detach(), steps)
+    ends = 0.5 * (inner + outer)
+    if E.requires_grad:
+        slope = spline.at(coefficients, ends, 1).detach()
+        ok = slope.abs() > 1e-8
+        shift = (E - E.detach())[:, None] / torch.where(ok, slope, torch.ones_like(slope))
+        ends = ends + torch.where(ok, shift, torch.zeros_like(shift))
+    a = torch.where(left < 0, torch.zeros_like(q0), ends[:, 0])   # open to a wall: clamp
+    b = torch.where(right >= n, torch.ones_like(q0), ends[:, 1])
+    return a, b
+
+
+def _brackets(spline, coefficients, values, grid, q0, E, steps):
+    """(inner, outer) (B, 2) ends of the bisected brackets of a and b, and the indices of
+    the outside grid points next to them (−1 or the grid's size where there is none)."""
     n = grid.numel()
     inside = values < E[:, None]
     # seed: the inside grid point nearest q0 (or q0 itself when the orbit is narrower
@@ -86,10 +109,7 @@ def _turning_points(spline, coefficients, values, grid, q0, E, steps):
         below = spline.at(coefficients, mid) < E[:, None]
         inner = torch.where(below, mid, inner)
         outer = torch.where(below, outer, mid)
-    ends = 0.5 * (inner + outer)
-    a = torch.where(left < 0, torch.zeros_like(q0), ends[:, 0])   # open to a wall: clamp
-    b = torch.where(right >= n, torch.ones_like(q0), ends[:, 1])
-    return a, b
+    return inner, outer, left, right
 
 
 #: Orbits narrower than this (in q) take the harmonic limit of their well's bottom: there

@@ -179,8 +179,7 @@ class PhaseONet(OperatorNet):
         float64 tensors a, b, E, T, u0 (B,) and U (B, nodes) (:func:`_orbit.orbit`)."""
         sensors, state = self._sensors_and_state(V.to(torch.float64))
         s, w = (a.to(V.device) for a in self._nodes)
-        with torch.no_grad():
-            return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w)
+        return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w)
 
     def _forward(self, V, t):
         if self.initial_state:

@@ -125,3 +125,38 @@ def test_the_state_option_is_named_where_it_cannot_apply():
         net((torch.zeros(1, 100, dtype=torch.float64), torch.zeros(3, 1, dtype=torch.float64)))
     built = nh.build_model("phaseonet", "cpu", initial_state=True)
     assert built.initial_state and built.branch[0].in_features == 64 + 1
+
+
+def test_the_flow_jacobian_goes_through_the_orbit_by_autograd():
+    # zero weights: the harmonic orbit, whose flow map is linear with
+    # J = [[cos Wt, sin(Wt)/W], [−W sin Wt, cos Wt]]
+    from nh_operators.evaluation import network_jacobian
+
+    net = net64(grid=4096)
+    with torch.no_grad():
+        net.branch[-1].weight.zero_()
+        net.branch[-1].bias.zero_()
+    V = 2 - W**2 * X * (1 - X) / 2
+    t = np.array([0.3, 1.1, 1.9])
+    J = network_jacobian(net, V[None], np.array([0.35]), np.array([0.6]), t)[0]
+    c, s = np.cos(W * t), np.sin(W * t)
+    exact = np.stack([np.stack([c, s / W], -1), np.stack([-W * s, c], -1)], -2)
+    np.testing.assert_allclose(J, exact, atol=2e-3)
+    np.testing.assert_allclose(np.linalg.det(J), 1.0, atol=2e-3)
+
+
+def test_a_method_passes_states_to_a_network_that_reads_them_and_refuses_otherwise():
+    from nh_operators.evaluation import NeuralMethod
+
+    V = (2 - W**2 * X * (1 - X) / 2)[None].repeat(2, 0)
+    method = NeuralMethod(net64(), "phase", domain_check=False)
+    q, p = method(V, nh.TIMES[:5], q0=[0.3, 0.0], p0=[0.5, 0.0])
+    with torch.no_grad():
+        direct = method.net((rows(V, [0.3, 0.0], [0.5, 0.0]),
+                             torch.tensor(nh.TIMES[:5])[:, None])).numpy()
+    np.testing.assert_allclose(q, direct[..., 0], rtol=1e-12)
+    rest = method(V, nh.TIMES[:5])   # default: the rest state
+    np.testing.assert_allclose(rest[0][1], q[1], rtol=1e-12)
+    plain = NeuralMethod(net64(initial_state=False), "plain", domain_check=False)
+    with pytest.raises(ValueError, match=r"trained from the state \(0, 0\) only"):
+        plain(V, nh.TIMES[:5], q0=0.3, p0=0.5)
