@@ -117,7 +117,16 @@ def _brackets(spline, coefficients, values, grid, q0, E, steps):
 NARROW = 1e-4
 
 
-def orbit(spline, V, q0, p0, s, w, steps=48):
+def composite_rule(panels, nodes):
+    """Composite Gauss–Legendre on [0, 1]: ``panels`` equal panels of ``nodes`` nodes;
+    (s, w), each (panels · nodes,), float64 tensors."""
+    x, v = np.polynomial.legendre.leggauss(nodes)
+    left = np.arange(panels)[:, None] / panels
+    s = (left + (x[None] + 1) / (2 * panels)).reshape(-1)
+    return torch.tensor(s), torch.tensor(np.tile(v / (2 * panels), panels))
+
+
+def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
     """The orbit through (q0, p0) in the sensor spline of each row's V.
 
     Args:
@@ -126,6 +135,9 @@ def orbit(spline, V, q0, p0, s, w, steps=48):
         s, w: (K,) Gauss–Legendre nodes and weights on [0, 1] (float64).
         steps: bisection steps per turning point (48: below float64's resolution of a
             grid cell).
+        rule: (s, w) of the quadrature of T and u0 (default ``(s, w)``); a composite rule
+            (:func:`composite_rule`) resolves the slow passage over a barrier top that an
+            orbit just above a separatrix makes inside [a, b].
 
     Returns:
         dict with a, b, E, T, u0 of shape (B,) and U (B, K) = E − V at the nodes
@@ -145,7 +157,11 @@ def orbit(spline, V, q0, p0, s, w, steps=48):
         jac = L[:, None] * (math.pi / 2) * torch.sin(math.pi * nodes)
         return jac * torch.rsqrt(2 * U), U
 
+    nodes = s
     f, U = integrand(s[None].expand(len(V), -1))
+    if rule is not None:
+        s, w = rule
+        f, _ = integrand(s[None].expand(len(V), -1))
     T = 2 * (f @ w)
     s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
     f0, _ = integrand(s0[:, None] * s[None])
@@ -155,7 +171,7 @@ def orbit(spline, V, q0, p0, s, w, steps=48):
         curvature = spline.at(coefficients, (0.5 * (a + b))[:, None], 2)[:, 0].clamp(min=1e-12)
         T = torch.where(narrow, 2 * math.pi * torch.rsqrt(curvature), T)
         phase = torch.where(narrow, s0 / 2, phase)
-        harmonic = (curvature * L * L / 8)[:, None] * torch.sin(math.pi * s)[None] ** 2
+        harmonic = (curvature * L * L / 8)[:, None] * torch.sin(math.pi * nodes)[None] ** 2
         U = torch.where(narrow[:, None], harmonic.clamp(min=1e-300), U)
     u0 = torch.where(p0 >= 0, phase, 1 - phase)
     return {"a": a, "b": b, "E": E, "T": T, "u0": u0, "U": U}

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from ._layers import OperatorNet
-from ._orbit import SensorSpline, orbit
+from ._orbit import SensorSpline, composite_rule, orbit
 
 __all__ = ["PhaseONet", "period_quadrature"]
 
@@ -99,6 +99,12 @@ class PhaseONet(OperatorNet):
             on U only up to a scale), and log T; and q = a + (b − a) Q(h),
             p = ± (b − a) / T · P(h) at the phase u = u0 + t / T. Q and P start at the
             harmonic orbit, (1 − cos 2πh)/2 and π sin 2πh. Phase head only.
+        panels: with ``initial_state``, the period and the phase come from a composite
+            Gauss–Legendre rule of ``panels`` × 16 nodes (default 32: an orbit just above
+            a barrier passes its top slowly, a peak inside [a, b] that 64 nodes missed
+            by up to 6 % of T; with 512 nodes the period is within 1.3e-6 of the
+            classical orbit solver's on 2,000 validation states of
+            ``paper-states-extended``).
 
     Input ``(V, t)``: V (B, m) with V0 at both walls and V < V0 inside (the network
     clamps V0 − V at 1e-12; out-of-domain input is the domain check's job), or
@@ -115,7 +121,8 @@ class PhaseONet(OperatorNet):
     query_coupled = False
 
     def __init__(self, width=128, depth=2, basis=32, grid=256, nodes=64, activation="gelu",
-                 n_sensors=100, n_outputs=2, head="phase", horizon=2.0, initial_state=False):
+                 n_sensors=100, n_outputs=2, head="phase", horizon=2.0, initial_state=False,
+                 panels=32):
         super().__init__()
         if head not in ("phase", "time"):
             raise ValueError(f"head must be 'phase' or 'time', got {head!r}")
@@ -160,6 +167,7 @@ class PhaseONet(OperatorNet):
             s, w = np.polynomial.legendre.leggauss(nodes)
             self._nodes = (torch.tensor((s + 1) / 2), torch.tensor(w / 2))
             self._spline = SensorSpline(n_sensors)
+            self._rule = composite_rule(panels, 16)
         for _ in range(depth):
             layers += [torch.nn.Linear(d, width), acts[activation]()]
             d = width
@@ -179,7 +187,8 @@ class PhaseONet(OperatorNet):
         float64 tensors a, b, E, T, u0 (B,) and U (B, nodes) (:func:`_orbit.orbit`)."""
         sensors, state = self._sensors_and_state(V.to(torch.float64))
         s, w = (a.to(V.device) for a in self._nodes)
-        return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w)
+        rule = tuple(a.to(V.device) for a in self._rule)
+        return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w, rule=rule)
 
     def _forward(self, V, t):
         if self.initial_state:

@@ -46,7 +46,7 @@ def test_the_harmonic_orbit_from_any_state_has_exact_ends_period_and_phase():
     amplitude = np.sqrt(2 * (E - (2 - W**2 / 8))) / W
     np.testing.assert_allclose(o["a"].numpy(), 0.5 - amplitude, atol=1e-13)
     np.testing.assert_allclose(o["b"].numpy(), 0.5 + amplitude, atol=1e-13)
-    np.testing.assert_allclose(o["T"].numpy(), 2 * math.pi / W, rtol=1e-12)
+    np.testing.assert_allclose(o["T"].numpy(), 2 * math.pi / W, rtol=1e-11)
     # time from the left end a to q0 on q = 1/2 − A cos(W τ) (row 2 rests at the
     # bottom: no orbit, and the harmonic limit's period)
     moving = [0, 1, 3]
@@ -60,7 +60,9 @@ def test_period_and_phase_in_a_double_well_match_adaptive_quadrature():
     # below the barrier: the orbit stays in the left well; above: it spans both
     V = 2 - 40 * X**2 * (1 - X) ** 2 * (0.1 + 8 * (X - 0.5) ** 2)  # wells near 0.22, 0.78
     spline = CubicSpline(X, V)
-    for q0, p0 in ((0.2, 0.3), (0.2, -1.2)):
+    # the third crosses the barrier top at 1/2 with 1e-4 of kinetic energy: a slow
+    # passage, a peak of 1/|p| inside [a, b] that a single 64-node rule misses
+    for q0, p0 in ((0.2, 0.3), (0.2, -1.2), (0.5, math.sqrt(2e-4))):
         o = {k: v.item() for k, v in net64().state_orbit(rows(V, q0, p0)).items()
              if k != "U"}
         E, a, b = o["E"], o["a"], o["b"]
@@ -68,10 +70,10 @@ def test_period_and_phase_in_a_double_well_match_adaptive_quadrature():
         assert spline(a) == pytest.approx(E, abs=1e-12) and spline(b) == pytest.approx(E, abs=1e-12)
         assert a < q0 < b and np.all(spline(np.linspace(a, b, 2001)[1:-1]) < E)
         speed = lambda q: 1 / math.sqrt(2 * (E - spline(q)))  # noqa: E731
-        T = 2 * quad(speed, a, b, epsabs=0, epsrel=1e-12, limit=500)[0]
+        T = 2 * quad(speed, a, b, epsabs=0, epsrel=1e-12, limit=500, points=[0.5])[0]
         tau = quad(speed, a, q0, epsabs=0, epsrel=1e-12, limit=500)[0]
-        assert o["T"] == pytest.approx(T, rel=1e-7)
-        assert o["u0"] == pytest.approx(tau / T if p0 >= 0 else 1 - tau / T, abs=1e-7)
+        assert o["T"] == pytest.approx(T, rel=1e-5)
+        assert o["u0"] == pytest.approx(tau / T if p0 >= 0 else 1 - tau / T, abs=1e-5)
     low = net64().state_orbit(rows(V, 0.2, 0.3))
     assert low["b"].item() < 0.5 < net64().state_orbit(rows(V, 0.2, -1.2))["b"].item()
 
@@ -114,7 +116,10 @@ def test_at_rest_the_orbit_is_the_rest_scene():
     np.testing.assert_allclose(o["b"].numpy(), 1.0, atol=1e-14)
     np.testing.assert_allclose(o["u0"].numpy(), 0.0, atol=1e-14)
     rest = net64(initial_state=False).period(torch.tensor(V))
-    np.testing.assert_allclose(o["T"].numpy(), rest.numpy(), rtol=1e-12)
+    # the rest head's 64 Gauss–Legendre nodes against the state head's 32 × 16
+    np.testing.assert_allclose(o["T"].numpy(), rest.numpy(), rtol=1e-5)
+    single = net64(panels=1).state_orbit(rows(V, 0.0, 0.0))["T"]   # 16 nodes
+    assert np.abs(single.numpy() / o["T"].numpy() - 1).max() > 1e-7
 
 
 def test_the_state_option_is_named_where_it_cannot_apply():
