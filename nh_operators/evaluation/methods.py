@@ -156,9 +156,11 @@ class NeuralMethod(Method):
         if self.domain_check:
             _warn_out_of_domain(self.name, V, self.domain)
         if getattr(self.net, "initial_state", False):
-            n = len(V)
-            V = np.column_stack([V, np.broadcast_to(np.asarray(q0, dtype=np.float64), (n,)),
-                                 np.broadcast_to(np.asarray(p0, dtype=np.float64), (n,))])
+            rows = np.atleast_2d(V)
+            n = len(rows)
+            state = [np.broadcast_to(np.asarray(a, dtype=np.float64), (n,)) for a in (q0, p0)]
+            stacked = np.column_stack([rows, *state])
+            V = stacked[0] if np.ndim(V) == 1 else stacked   # one potential stays one
         elif np.any(np.asarray(q0) != 0) or np.any(np.asarray(p0) != 0):
             raise ValueError(f"{self.name} was trained from the state (0, 0) only; a network "
                              "built with initial_state=True reads other states")
