@@ -5,8 +5,9 @@ A shipped model is a folder ``weights/NAME``. Its name says the data it was trai
 ``MODEL-paper`` on ``paper-standard`` (the distribution of the paper's tables) and
 ``MODEL-alg1`` on ``alg1-standard`` (Algorithm 1 as printed); ``phaseonet-*`` on the
 ``-extended`` presets (100,000 potentials) of the same distributions;
-``MODEL-paper-states`` on ``paper-states-extended``, from a starting state stratified by
-energy (it reads (q0, p0) after the sensors: :func:`reads_state`). A bare model name
+``phaseonet-paper-states`` and ``phaseonet-alg1-states`` on the ``-states-extended``
+presets, from starting states stratified by energy (they read (q0, p0) after the
+sensors: :func:`reads_state`). A bare model name
 (``"traonet"``) means its ``-alg1`` weights, as earlier releases shipped.
 """
 
