@@ -26,6 +26,16 @@ def net64(seed=0, **kw):
     return cast_network(net, torch.float64).eval()
 
 
+def harmonic(grid):
+    """A network at zero output weights (the harmonic orbit through any state) and the
+    harmonic well's sensor values."""
+    net = net64(grid=grid)
+    with torch.no_grad():
+        net.branch[-1].weight.zero_()
+        net.branch[-1].bias.zero_()
+    return net, 2 - W**2 * X * (1 - X) / 2
+
+
 def rows(V, q0, p0):
     V = np.atleast_2d(V)
     n = len(V)
@@ -93,11 +103,7 @@ def test_periods_from_generator_states_match_the_orbit_solver():
 
 
 def test_zero_coefficients_give_the_exact_harmonic_trajectory_from_a_state():
-    net = net64(grid=2048)
-    with torch.no_grad():
-        net.branch[-1].weight.zero_()
-        net.branch[-1].bias.zero_()
-    V = 2 - W**2 * X * (1 - X) / 2
+    net, V = harmonic(grid=2048)
     t = np.linspace(0, 5, 61)   # past one period: the phase runs on
     for q0, p0 in ((0.3, -0.5), (0.45, 0.9), (0.5, 0.0)):
         with torch.no_grad():
@@ -137,11 +143,7 @@ def test_the_flow_jacobian_goes_through_the_orbit_by_autograd():
     # J = [[cos Wt, sin(Wt)/W], [−W sin Wt, cos Wt]]
     from nh_operators.evaluation import network_jacobian
 
-    net = net64(grid=4096)
-    with torch.no_grad():
-        net.branch[-1].weight.zero_()
-        net.branch[-1].bias.zero_()
-    V = 2 - W**2 * X * (1 - X) / 2
+    net, V = harmonic(grid=4096)
     t = np.array([0.3, 1.1, 1.9])
     J = network_jacobian(net, V[None], np.array([0.35]), np.array([0.6]), t)[0]
     c, s = np.cos(W * t), np.sin(W * t)
