@@ -101,10 +101,9 @@ class PhaseONet(OperatorNet):
             harmonic orbit, (1 − cos 2πh)/2 and π sin 2πh. Phase head only.
         panels: with ``initial_state``, the period and the phase come from a composite
             Gauss–Legendre rule of ``panels`` × 16 nodes (default 32: an orbit just above
-            a barrier passes its top slowly, a peak inside [a, b] that 64 nodes missed
-            by up to 6 % of T; with 512 nodes the period is within 1.3e-6 of the
-            classical orbit solver's on 2,000 validation states of
-            ``paper-states-extended``).
+            a barrier passes its top slowly, a peak inside [a, b] that a single rule
+            of 64 nodes resolves poorly; ``tests/models/test_phaseonet_states.py``
+            checks the period 1e-4 above a barrier against adaptive quadrature).
 
     Input ``(V, t)``: V (B, m) with V0 at both walls and V < V0 inside (the network
     clamps V0 − V at 1e-12; out-of-domain input is the domain check's job), or
