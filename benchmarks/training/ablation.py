@@ -58,6 +58,7 @@ def main():
     ap.add_argument("--test", help="test set .h5 (scored whole)")
     ap.add_argument("--baseline", default="base", help="the change the ratios refer to")
     ap.add_argument("--json", help="also write the per-run numbers here")
+    ap.add_argument("--device", default="cpu", help="where the networks run (cpu, cuda)")
     args = ap.parse_args()
 
     sets = {"val": split(args.val, "val")}
@@ -69,7 +70,7 @@ def main():
         match = re.fullmatch(r"(.+)-s(\d+)", run.name)
         if not (match and (run / "checkpoint.pt").exists()):
             continue
-        net, cfg = load_model(run)
+        net, cfg = load_model(run, device=args.device)
         hist = read_history(run)
         state = load_checkpoint(run)
         n_train = state.get("train_rows")

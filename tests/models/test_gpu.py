@@ -22,6 +22,29 @@ def test_cuda_forward_matches_cpu(name):
     assert torch.allclose(cpu, gpu, atol=1e-4)
 
 
+@pytest.mark.parametrize("name", ["deeponet", "mambonet", "traonet", "varonet"])
+def test_cuda_forward_matches_cpu_for_the_reference_variants(name):
+    arch = dict(hidden_size=16, branches=4) if name == "deeponet" else TINY[name]
+    torch.manual_seed(0)
+    net = nh.build_model(name, "cpu", variant="reference", **arch).eval()
+    x = inputs()
+    with torch.no_grad():
+        cpu = net(x)
+        gpu = net.cuda()(tuple(a.cuda() for a in x)).cpu()
+    assert torch.allclose(cpu, gpu, atol=1e-4)
+
+
+def test_state_network_on_cuda_matches_cpu():
+    net = tiny("phaseonet", initial_state=True).eval()
+    V, t = inputs(batch=2)
+    V = torch.cat([0.5 * torch.cos(6 * torch.linspace(0, 1, 100)).expand(2, 100) + 1,
+                   torch.tensor([[0.3, 0.2], [0.5, -0.4]])], dim=1)
+    with torch.no_grad():
+        cpu = net((V, t))
+        gpu = net.cuda()((V.cuda(), t.cuda())).cpu()
+    assert torch.isfinite(cpu).all() and torch.allclose(cpu, gpu, atol=1e-4)
+
+
 def test_default_device_is_left_alone():
     assert torch.get_default_device().type == "cpu"
 
