@@ -50,6 +50,11 @@ FIRST = {
         "import nh_operators as nh\n"
         "nh.solve(nh.BoundedPotential([0, 0.3, 0.7, 1], [2, -1, 0.5, 2]), [0.5], tol=1e-6)"),
     "nh.solve on a formula": "import nh_operators as nh; nh.solve('8*(q-0.5)**2', [0.5], tol=1e-6)",
+    # the floor of any answer that runs a numba kernel: NumPy, numba, one cached kernel
+    "numba alone: one cached kernel": (
+        "import numpy as np, numba\n"
+        "from nh_operators.solvers import _kernels\n"
+        "_kernels.notaknot_params(np.zeros((1, 100)), np.empty((1, 396)))"),
 }
 
 

@@ -13,7 +13,6 @@ pieces hold zeros.
 import functools
 
 import numpy as np
-from scipy import interpolate
 
 DEGREE = 3
 MAX_CONTROL = 9  # n_grf ≤ 7 interior control points plus the two ends
@@ -43,13 +42,15 @@ def power_matrix(n_control):
 
     ``coef[j, k] = sum_c M[j, k, c] * P[c]`` is the coefficient of s**k on piece j.
     """
+    from scipy.interpolate import PPoly  # only here: a slow import (0.5-1 s)
+
     knots = clamped_knots(n_control)
     pieces = n_control - DEGREE
     out = np.zeros((pieces, 4, n_control))
     for c in range(n_control):
         unit = np.zeros(n_control)
         unit[c] = 1.0
-        pp = interpolate.PPoly.from_spline((knots, unit, DEGREE))
+        pp = PPoly.from_spline((knots, unit, DEGREE))
         keep = np.diff(pp.x) > 0  # drop the zero-length intervals of the clamped ends
         coef = pp.c[:, keep]  # (4, S), highest power first, in powers of (λ - λ_j)
         for k in range(4):

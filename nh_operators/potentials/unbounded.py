@@ -16,7 +16,6 @@ free fall V = −4(q − 1/2), Q = 1/2, it gives P = 32q³ − 48q² + 20q − 2
 """
 
 import numpy as np
-from scipy import integrate
 
 from .._constants import V0 as DEFAULT_V0
 from .coerce import CallablePotential as _Callable
@@ -140,6 +139,8 @@ def extend_monotone(V, Q, dV=None, V0=DEFAULT_V0, *, d2V=None, name=None):
     def integrand(u):  # q = Q u²: the 1/sqrt(q) singularity at q = 0 is gone
         gap = V0 - float(np.asarray(V(np.array([Q * u * u])))[0])
         return 2.0 * Q * u / np.sqrt(2.0 * gap) if gap > 0 else np.sqrt(2.0 * Q / -d0)
+
+    from scipy import integrate  # only here: a slow import
 
     T, _ = integrate.quad(integrand, 0.0, 1.0, epsabs=1e-13, epsrel=1e-12, limit=200)
     return ExtendedPotential(V, dV, Q, v, d1, d2, k, R, T, V0, name)

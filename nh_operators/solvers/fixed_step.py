@@ -14,7 +14,6 @@ a formula's force jumps (a kink: fixed steps are then first order).
 """
 
 import numpy as np
-from scipy import interpolate
 
 from .._constants import SENSORS, TIMES, V0
 from .._sensors import sensor_values
@@ -178,7 +177,9 @@ def sensor_spline_params(V, interpolation="cubic"):
         _kernels.notaknot_params(V, out)
         return out
     if interpolation == "pchip":
-        spline = interpolate.PchipInterpolator(SENSORS, V, axis=1)
+        from scipy.interpolate import PchipInterpolator  # only here: a slow import
+
+        spline = PchipInterpolator(SENSORS, V, axis=1)
     else:
         raise ValueError(f"interpolation must be 'cubic' or 'pchip', got {interpolation!r}")
     return _piece_coefficients(spline.c)

@@ -1,7 +1,6 @@
 """The truth: an adaptive high-accuracy solve of a B-spline potential or a formula."""
 
 import numpy as np
-from scipy import integrate as sp_integrate
 
 from .._constants import TIMES
 from ..potentials.bounded import BoundedPotential
@@ -64,6 +63,8 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
     elif hasattr(potential, "dV"):
         q0s, p0s = state_arrays(q0, p0, 1)
         start = check_states(q0s, p0s, lambda x: potential.V(x))
+        from scipy import integrate as sp_integrate  # a slow import, only here
+
         sol = sp_integrate.solve_ivp(
             lambda _, y: (y[1], -float(potential.dV(y[0]))), (0.0, max(ts[-1], 1e-300)),
             (q0s[0], p0s[0]), method="DOP853", t_eval=ts, rtol=1e-13, atol=1e-13,

@@ -29,7 +29,6 @@ import functools
 
 import numba
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .._constants import SENSORS, TIMES, V0
 
@@ -117,6 +116,8 @@ def residuals(q, p, V_rows, dV_rows, t=TIMES):
 @functools.lru_cache(maxsize=8)
 def _integration_matrix(t_bytes):
     """A with (A y)_i = ∫₀^{t_i} of the not-a-knot cubic spline through (t, y)."""
+    from scipy.interpolate import CubicSpline  # a slow import: only for a network's estimate
+
     t = np.frombuffer(t_bytes, dtype=np.float64)
     return CubicSpline(t, np.eye(t.size), axis=0).antiderivative()(t)
 
@@ -131,6 +132,8 @@ def raw_estimate(q, p, V_rows, dV_rows, t=TIMES):
 def _basis(t_bytes):
     """Piecewise coefficients (scipy's PPoly layout, highest power first) of the
     not-a-knot splines through the unit vectors on the grid, and of their integrals."""
+    from scipy.interpolate import CubicSpline  # a slow import: only for a network's estimate
+
     t = np.frombuffer(t_bytes, dtype=np.float64)
     spline = CubicSpline(t, np.eye(t.size), axis=0)
     return t, spline.c, spline.antiderivative().c
