@@ -11,12 +11,18 @@ trajectory (median of ``--repeats`` runs, all in the same run):
   the cost of the last level alone;
 - the ratios loop / solve_many (goal ≥ 20 at N = 10⁴) and solve_many / kernel (goal ≤ 2).
 
+``--inputs bspline`` runs the same table on the exact potentials themselves (a batched
+:class:`~nh_operators.BoundedPotential`; the kernel column is then
+:func:`~nh_operators.integrate`), the generator's B-spline curves, whose force inverts
+q(λ) = x by Newton's method at every evaluation.
+
 Then the formula speed-up: ``nh.solve`` of a typed formula (compiled) against the same
 formula as a plain Python callable, and against a B-spline, at batch 1.
 
 Run it with::
 
-    python benchmarks/cost/solve_many.py [--sizes 1 100 10000 100000] [--repeats 3]
+    python benchmarks/cost/solve_many.py [--sizes 1 100 10000 100000] [--repeats 3] \
+        [--inputs sensors|bspline] [--formulas | --no-formulas]
 """
 
 import argparse
@@ -51,14 +57,22 @@ def main():
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--loop-cap", type=int, default=300)
     parser.add_argument("--tol", type=float, default=1e-6)
+    parser.add_argument("--inputs", choices=("sensors", "bspline"), default="sensors")
+    parser.add_argument("--formulas", action=argparse.BooleanOptionalAction, default=True,
+                        help="also the batch-1 formula table")
     args = parser.parse_args()
     rng = np.random.default_rng(14)
     space = BoundedPotentialSpace(seed=42)
-    V_all = space.potentials(space.random(max(args.sizes))).V(nh.SENSORS)
-    q_all, p_all = states(V_all, rng)
+    pots = space.potentials(space.random(max(args.sizes)))
+    V_sensors = pots.V(nh.SENSORS)
+    q_all, p_all = states(V_sensors, rng)
+    V_all = V_sensors if args.inputs == "sensors" else pots
+    fixed = nh.integrate_sensors if args.inputs == "sensors" else nh.integrate
     nh.solve_many(V_all[:2], nh.TIMES, q0=q_all[:2], p0=p_all[:2], tol=args.tol,
                   method="classical")  # compile
-    print(f"sensor values, random bounded states, 100 times on [0, 2], tol {args.tol:g}; "
+    fixed(V_all[:2], nh.TIMES, substeps=2, check_resolution=False, q0=q_all[:2], p0=p_all[:2])
+    what = "sensor values" if args.inputs == "sensors" else "B-spline curves (exact)"
+    print(f"{what}, random bounded states, 100 times on [0, 2], tol {args.tol:g}; "
           "µs per trajectory\n")
     print(f"{'N':>7} {'solve_many':>11} {'loop solve':>11} {'kernel':>9} {'subst med/max':>13} "
           f"{'loop/many':>10} {'many/kernel':>12}")
@@ -80,14 +94,18 @@ def main():
         def kernel(V=V, q0=q0, p0=p0, subs=subs):
             for sub in np.unique(subs):  # each row at the substeps it ended with
                 rows = subs == sub
-                nh.integrate_sensors(V[rows], nh.TIMES, substeps=int(sub),
-                                     check_resolution=False, q0=q0[rows], p0=p0[rows])
+                fixed(V[np.flatnonzero(rows)], nh.TIMES, substeps=int(sub),
+                      check_resolution=False, q0=q0[rows], p0=p0[rows])
 
         t_kernel = median_time(kernel, args.repeats) / n
         print(f"{n:>7} {1e6 * t_many:11.1f} {1e6 * t_loop:11.1f} {1e6 * t_kernel:9.1f} "
               f"{int(np.median(subs)):>5}/{subs.max():<4} {t_loop / t_many:10.1f} "
               f"{t_many / t_kernel:12.2f}")
+    if args.formulas:
+        formulas(space)
 
+
+def formulas(space):
     print("\nformula speed-up at batch 1 (nh.solve, tol 1e-8, 100 times, median of 20)")
     text = "625/8*(q-0.2)**2*(q-0.8)**2"
     pot = nh.PHYSICAL_POTENTIALS["double_well"]
