@@ -14,6 +14,7 @@ runs without autograd; PhaseONet's ``initial_state`` option reads the orbit's sh
 
 import math
 
+import numba
 import numpy as np
 import torch
 
@@ -82,9 +83,20 @@ def _turning_points(spline, coefficients, values, grid, q0, E, steps):
     return a, b
 
 
-def _brackets(spline, coefficients, values, grid, q0, E, steps):
+def _brackets(spline, coefficients, values, grid, q0, E, steps, compiled=None):
     """(inner, outer) (B, 2) ends of the bisected brackets of a and b, and the indices of
-    the outside grid points next to them (−1 or the grid's size where there is none)."""
+    the outside grid points next to them (−1 or the grid's size where there is none).
+
+    ``compiled`` (default: on the CPU) runs :func:`_brackets_compiled`, the same
+    arithmetic in one call: at batch 1 the torch version is ~500 tiny tensor operations
+    (8 of a forward's 11 ms)."""
+    if compiled is None:
+        compiled = coefficients.device.type == "cpu"
+    if compiled:
+        out = _brackets_compiled(*(a.detach().numpy() for a in (coefficients, values, grid,
+                                                                 q0, E)),
+                                 steps, spline.pieces)
+        return tuple(torch.from_numpy(o) for o in out)
     n = grid.numel()
     inside = values < E[:, None]
     # seed: the inside grid point nearest q0 (or q0 itself when the orbit is narrower
@@ -109,6 +121,56 @@ def _brackets(spline, coefficients, values, grid, q0, E, steps):
         below = spline.at(coefficients, mid) < E[:, None]
         inner = torch.where(below, mid, inner)
         outer = torch.where(below, outer, mid)
+    return inner, outer, left, right
+
+
+@numba.njit(cache=True, nogil=True)
+def _spline_value(c, pieces, x):
+    i = min(max(math.floor(x * pieces), 0.0), pieces - 1.0)
+    dx = x - i / pieces
+    o = 4 * int(i)
+    return ((c[o] * dx + c[o + 1]) * dx + c[o + 2]) * dx + c[o + 3]
+
+
+@numba.njit(cache=True, nogil=True)
+def _brackets_compiled(coefficients, values, grid, q0, E, steps, pieces):
+    """:func:`_brackets` row by row, with the torch version's arithmetic."""
+    rows, n = values.shape
+    inner = np.empty((rows, 2))
+    outer = np.empty((rows, 2))
+    left = np.empty(rows, dtype=np.int64)
+    right = np.empty(rows, dtype=np.int64)
+    for r in range(rows):
+        c, e = coefficients[r], E[r]
+        nearest, best, has = 0, np.inf, False
+        for k in range(n):
+            inside = values[r, k] < e
+            has = has or inside
+            d = abs(grid[k] - q0[r]) + (0.0 if inside else 10.0)
+            if d < best:
+                nearest, best = k, d
+        seed = grid[nearest] if has else q0[r]
+        lo, hi = -1, n
+        for k in range(n):
+            if not values[r, k] < e:
+                if grid[k] < seed:
+                    lo = k
+                elif grid[k] > seed and hi == n:
+                    hi = k
+        left[r], right[r] = lo, hi
+        inner[r, 0] = min(grid[min(lo + 1, n - 1)], seed)
+        outer[r, 0] = grid[max(lo, 0)]
+        inner[r, 1] = max(grid[max(hi - 1, 0)], seed)
+        outer[r, 1] = grid[min(hi, n - 1)]
+        for j in range(2):   # invariant: V(inner) < E ≤ V(outer)
+            i_, o_ = inner[r, j], outer[r, j]
+            for _ in range(steps):
+                mid = 0.5 * (i_ + o_)
+                if _spline_value(c, pieces, mid) < e:
+                    i_ = mid
+                else:
+                    o_ = mid
+            inner[r, j], outer[r, j] = i_, o_
     return inner, outer, left, right
 
 

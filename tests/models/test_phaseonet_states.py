@@ -167,3 +167,25 @@ def test_a_method_passes_states_to_a_network_that_reads_them_and_refuses_otherwi
     plain = NeuralMethod(net64(initial_state=False), "plain", domain_check=False)
     with pytest.raises(ValueError, match=r"trained from the state \(0, 0\) only"):
         plain(V, nh.TIMES[:5], q0=0.3, p0=0.5)
+
+
+def test_the_compiled_brackets_are_the_torch_brackets_bit_for_bit():
+    from nh_operators.models import _orbit
+
+    space = nh.BoundedPotentialSpace(seed=11)
+    V = torch.tensor(space.potentials(space.random(200)).V(nh.SENSORS))
+    spline = _orbit.SensorSpline()
+    coef_map, grid_map, grid = spline.maps(torch.device("cpu"))
+    c, values = V @ coef_map, V @ grid_map
+    rng = np.random.default_rng(0)
+    q0 = torch.tensor(rng.uniform(0.01, 0.99, 200))
+    V0q = spline.at(c, q0[:, None])[:, 0]
+    # energies from just above V(q0) (narrow orbits) to above V0 (open to both walls)
+    E = V0q + torch.tensor(np.concatenate([rng.uniform(0, 1e-9, 50), rng.uniform(0, 1, 100),
+                                           rng.uniform(3, 5, 50)]))
+    compiled = _orbit._brackets(spline, c, values, grid, q0, E, 48, compiled=True)
+    plain = _orbit._brackets(spline, c, values, grid, q0, E, 48, compiled=False)
+    for x, y in zip(compiled, plain):
+        assert x.dtype == y.dtype and torch.equal(x, y)
+    left, right = plain[2], plain[3]
+    assert (left == -1).any() and (right == grid.numel()).any()  # open ends were tried
