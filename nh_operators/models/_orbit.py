@@ -174,6 +174,40 @@ def _brackets_compiled(coefficients, values, grid, q0, E, steps, pieces):
     return inner, outer, left, right
 
 
+@numba.njit(cache=True, nogil=True)
+def _integrand(c, pieces, a, L, E, x):
+    """(dq/ds) / sqrt(2 (E − V)) at s = x, as :func:`orbit`'s torch integrand."""
+    q = a + L * (1 - math.cos(math.pi * x)) / 2
+    U = max(E - _spline_value(c, pieces, q), 1e-300)
+    return L * (math.pi / 2) * math.sin(math.pi * x) / math.sqrt(2 * U)
+
+
+@numba.njit(cache=True, nogil=True)
+def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces):
+    """T, the phase before its sign, U at ``nodes`` and s0 of :func:`orbit`, row by
+    row (the same formulas; libm's cos, sin and sqrt instead of torch's)."""
+    rows, n_nodes, n_rule = a.shape[0], nodes.shape[0], s.shape[0]
+    T, phase, s0s = np.empty(rows), np.empty(rows), np.empty(rows)
+    U = np.empty((rows, n_nodes))
+    for r in range(rows):
+        c, e = coefficients[r], E[r]
+        L = max(b[r] - a[r], 1e-12)
+        for k in range(n_nodes):
+            q = a[r] + L * (1 - math.cos(math.pi * nodes[k])) / 2
+            U[r, k] = max(e - _spline_value(c, pieces, q), 1e-300)
+        total = 0.0
+        for k in range(n_rule):
+            total += _integrand(c, pieces, a[r], L, e, s[k]) * w[k]
+        T[r] = 2 * total
+        s0 = math.acos(min(max(1 - 2 * (q0[r] - a[r]) / L, -1.0), 1.0)) / math.pi
+        total = 0.0
+        for k in range(n_rule):
+            total += _integrand(c, pieces, a[r], L, e, s0 * s[k]) * w[k]
+        phase[r] = s0 * total / T[r]
+        s0s[r] = s0
+    return T, phase, U, s0s
+
+
 #: Orbits narrower than this (in q) take the harmonic limit of their well's bottom: there
 #: E − V is below ~1e-8 and loses its digits to cancellation.
 NARROW = 1e-4
@@ -220,14 +254,22 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
         return jac * torch.rsqrt(2 * U), U
 
     nodes = s
-    f, U = integrand(s[None].expand(len(V), -1))
-    if rule is not None:
-        s, w = rule
-        f, _ = integrand(s[None].expand(len(V), -1))
-    T = 2 * (f @ w)
-    s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
-    f0, _ = integrand(s0[:, None] * s[None])
-    phase = s0 * (f0 @ w) / T
+    rule_s, rule_w = (s, w) if rule is None else rule
+    needs_grad = torch.is_grad_enabled() and any(x.requires_grad for x in (V, q0, p0))
+    if V.device.type == "cpu" and not needs_grad:
+        # a function of the input alone: one compiled pass instead of (B, K) tensors
+        out = _quadrature_compiled(*(x.detach().numpy() for x in (coefficients, a, b, E, q0,
+                                                                  nodes, rule_s, rule_w)),
+                                   spline.pieces)
+        T, phase, U, s0 = (torch.from_numpy(x) for x in out)
+    else:
+        f, U = integrand(s[None].expand(len(V), -1))
+        if rule is not None:
+            f, _ = integrand(rule_s[None].expand(len(V), -1))
+        T = 2 * (f @ rule_w)
+        s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
+        f0, _ = integrand(s0[:, None] * rule_s[None])
+        phase = s0 * (f0 @ rule_w) / T
     narrow = L < NARROW
     if bool(narrow.any()):
         curvature = spline.at(coefficients, (0.5 * (a + b))[:, None], 2)[:, 0].clamp(min=1e-12)

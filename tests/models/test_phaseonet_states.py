@@ -189,3 +189,25 @@ def test_the_compiled_brackets_are_the_torch_brackets_bit_for_bit():
         assert x.dtype == y.dtype and torch.equal(x, y)
     left, right = plain[2], plain[3]
     assert (left == -1).any() and (right == grid.numel()).any()  # open ends were tried
+
+
+def test_the_compiled_quadrature_agrees_with_the_differentiable_one():
+    # without a gradient to carry the CPU takes one compiled pass; with one (the flow
+    # Jacobian) the torch formulas run: both must give the same orbit
+    from nh_operators.models import _orbit
+
+    space = nh.BoundedPotentialSpace(seed=12)
+    V = torch.tensor(space.potentials(space.random(100)).V(nh.SENSORS))
+    values = row_source(V.numpy(), "sensors").values_at
+    q0, p0, _ = energy_states(values, np.random.default_rng(3).random((100, STATE_UNIFORMS)))
+    q0, p0 = torch.tensor(q0), torch.tensor(p0)
+    spline = _orbit.SensorSpline()
+    s, w = (torch.tensor(x) for x in np.polynomial.legendre.leggauss(64))
+    s, w = (s + 1) / 2, w / 2
+    rule = _orbit.composite_rule(32, 16)
+    fast = _orbit.orbit(spline, V, q0, p0, s, w, rule=rule)
+    slow = _orbit.orbit(spline, V, q0.clone().requires_grad_(), p0, s, w, rule=rule)
+    assert torch.isfinite(fast["T"]).all()
+    for key in ("T", "u0", "U"):
+        np.testing.assert_allclose(fast[key].numpy(), slow[key].detach().numpy(),
+                                   rtol=1e-12, atol=1e-300)
