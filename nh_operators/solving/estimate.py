@@ -205,8 +205,9 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES, *, q0=0.0, p0=0.0):
         raise ValueError(f"the asked times must lie in [{t[0]:g}, {t[-1]:g}]")
     rows = np.broadcast_to(at.reshape(1, -1) if at.ndim <= 1 else at, (len(q), at.shape[-1]))
     shared = at.ndim <= 1
-    mats = [_at_matrices(t.tobytes(), np.ascontiguousarray(rows[i]).tobytes())
-            for i in range(1 if shared else len(q))]
+    on_grid = shared and np.array_equal(at.reshape(-1), t)
+    mats = [] if on_grid else [_at_matrices(t.tobytes(), np.ascontiguousarray(rows[i]).tobytes())
+                               for i in range(1 if shared else len(q))]
     force = dV_rows(q)
 
     def apply(y, k):  # y (N, K) with matrix k of mats, row by row when times differ
@@ -219,10 +220,12 @@ def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES, *, q0=0.0, p0=0.0):
     p0 = np.reshape(np.asarray(p0, dtype=np.float64), (-1, 1))
     d_q, d_p = q - q0 - p @ integrate, p - p0 + force @ integrate
     w_q, w_p = propagated_error(d_q, d_p, _curvature(dV_rows, q, force), t)
+    running = np.maximum.accumulate(0.5 * ((d_q + w_q) ** 2 + (d_p + w_p) ** 2), axis=1)
+    if on_grid:  # asked at the grid itself: the error there is d + w, below its running max
+        return q.copy(), p.copy(), np.mean(running, axis=1)
     q_at, p_at = apply(q, 0), apply(p, 0)
     here = 0.5 * ((q_at - q0 - apply(p, 1) + apply(w_q, 0)) ** 2
                   + (p_at - p0 + apply(force, 1) + apply(w_p, 0)) ** 2)
-    running = np.maximum.accumulate(0.5 * ((d_q + w_q) ** 2 + (d_p + w_p) ** 2), axis=1)
     last = np.clip(np.searchsorted(t, rows, side="right") - 1, 0, t.size - 1)
     behind = np.take_along_axis(running, last, axis=1)
     return q_at, p_at, np.mean(np.maximum(here, behind), axis=1)
@@ -237,10 +240,11 @@ def _curvature(dV_rows, q, force, step=1e-6):
     dq = np.diff(q, axis=1)
     secant = np.diff(force, axis=1) / np.where(np.abs(dq) < step, 1.0, dq)
     still = np.abs(dq) < step
-    if still.any():
-        mid = 0.5 * (q[:, 1:] + q[:, :-1])
+    cols = np.flatnonzero(still.any(axis=0))  # usually a few (the start, turning points)
+    if cols.size:
+        mid = 0.5 * (q[:, cols + 1] + q[:, cols])
         point = (dV_rows(mid + step) - dV_rows(mid - step)) / (2.0 * step)
-        secant = np.where(still, point, secant)
+        secant[:, cols] = np.where(still[:, cols], point, secant[:, cols])
     return secant
 
 

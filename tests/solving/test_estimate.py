@@ -127,6 +127,11 @@ def test_estimate_at_the_grid_is_the_grid_estimate():
     np.testing.assert_allclose(raw, raw_estimate(q, p, *sho_force()), rtol=1e-12)
     true = loss_per_sample(q, p, *SHO.exact(nh.TIMES))["L_tot"]
     assert np.all((true <= raw) & (raw <= 10 * true))
+    # the grid's shortcut (no interpolation) against the general path: the grid asked
+    # as per-row times
+    qg, pg, rg = estimate_at(q, p, *sho_force(), np.tile(nh.TIMES, (2, 1)))
+    np.testing.assert_allclose(qg, q, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(rg, raw, rtol=1e-12)
     # per-row times: each row as if asked alone
     at = rng.uniform(0, 2, (2, 5))
     qa, pa, raw = estimate_at(q, p, *sho_force(), at)
