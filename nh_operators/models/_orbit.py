@@ -1,4 +1,4 @@
-"""The orbit through a state (q0, p0) in the sensor spline of V, in float64 torch.
+"""The orbit through a state (q0, p0) in the sensor spline of V, in float64.
 
 A bounded orbit of energy E = p0²/2 + V(q0) runs between the turning points a < q0 < b
 of the connected part of {V < E} that holds q0, with period
@@ -9,7 +9,9 @@ in :func:`~nh_operators.models.phaseonet.period_quadrature` for the rest scene
 (a = 0, b = 1, E = V0). The turning points are bracketed on a fine grid of the spline and
 bisected to float64 precision. Everything here is a function of the input only, so it
 runs without autograd; PhaseONet's ``initial_state`` option reads the orbit's shape off
-``U = E − V`` at the quadrature nodes.
+``U = E − V`` at the quadrature nodes. On the CPU the bisection, and the quadrature
+where no gradient flows through the state, run as compiled loops over the rows (numba);
+the torch formulas serve other devices and the flow's Jacobian by autograd.
 """
 
 import math
