@@ -25,7 +25,7 @@ Run it with::
     python benchmarks/training/ladder.py --plan gpu --data paper-standard.h5 \\
         --test paper-test.h5 --out ladder-gpu --minutes 6 --device cuda --jobs 20
 
-It writes ``OUT/plan.json`` (epochs per run, probe seconds), ``OUT/runs/NAME-sSEED``
+``--params`` prints the networks' parameter counts instead. It writes ``OUT/plan.json`` (epochs per run, probe seconds), ``OUT/runs/NAME-sSEED``
 (run directories), ``OUT/logs/`` and ``OUT/ablation.json``, and prints the table.
 """
 
@@ -86,6 +86,25 @@ def plan_runs(plan):
     return runs
 
 
+def print_params(runs):
+    """Parameter counts of the plan's networks (one line per name)."""
+    from nh_operators.models import build_model
+
+    seen = set()
+    for run in runs:
+        if run["name"] in seen:
+            continue
+        seen.add(run["name"])
+        args = run["args"]
+        model, preset, variant = (args[args.index(flag) + 1]
+                                  for flag in ("--model", "--preset", "--variant"))
+        arch = dict(a.split("=") for a, flag in zip(args[1:], args) if flag == "--arch")
+        arch = {k: int(v) if v.isdigit() else {"True": True, "False": False}.get(v, v)
+                for k, v in arch.items()}
+        net = build_model(model, preset=preset, variant=variant, **arch)
+        print(f"{run['name']}: {sum(p.numel() for p in net.parameters()):,} parameters")
+
+
 def launch(runs, out, extra, jobs, env):
     """Run ``nh-operators train`` for every run, ``jobs`` at a time; wait for all."""
     pending, active = list(runs), []
@@ -115,7 +134,11 @@ def main():
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--jobs", type=int, default=2, help="runs at once (one thread each)")
     ap.add_argument("--only", nargs="*", help="run only these names (NAME or NAME-sSEED)")
+    ap.add_argument("--params", action="store_true",
+                    help="print each run's parameter count and stop (nothing is trained)")
     args = ap.parse_args()
+    if args.params:
+        return print_params(plan_runs(args.plan))
 
     out = Path(args.out)
     (out / "logs").mkdir(parents=True, exist_ok=True)
