@@ -92,10 +92,11 @@ def bspline_locate(par, x):
         if not (lo <= s_new <= hi):
             s_new = 0.5 * (lo + hi)
         elif abs(step) <= 8.9e-16 * (1.0 + abs(s)):
-            # converged to about 2 ulps. (This was 1e-16, below one ulp near s = 1: the
-            # loop then ran on for 8-14 evaluations instead of about 4. Stopping earlier,
-            # after any step below 1e-9, leaves a bias of a few ulps in the force that
-            # trajectories near a separatrix amplify to 1e-9.)
+            # converged to about 4 ulps of 1 + |s|. (This was 1e-16, below one ulp near
+            # s = 1: the loop then iterated until the bracket closed. Stopping earlier,
+            # after any step below 1e-9, left a bias of a few ulps in the force that a
+            # trajectory near a separatrix amplified past the 1e-9 of
+            # tests/solvers/test_reference_states.py.)
             s = s_new
             break
         s = s_new
