@@ -10,6 +10,10 @@ from .._backend import ensure_pytorch_backend
 _dde = ensure_pytorch_backend()
 NN = _dde.nn.pytorch.nn.NN
 
+#: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],
+#: and |p| ≤ sqrt(2 (V0 − min V)) ≤ sqrt(8) for the generator's V ≥ −2.
+Q_MID, Q_HALF, P_MAX = 0.5, 0.5, math.sqrt(8.0)
+
 
 def split_inputs(inputs, n_sensors, initial_state=False):
     """Check and unpack DeepXDE's ``(V, t)`` pair.
@@ -167,12 +171,21 @@ class TimeDecoder(nn.Module):
         query_attention: self-attention across the query times (default True).
         norm_first: pre-norm layers, plus a LayerNorm before the output layer.
         activation: "relu" (default, PyTorch's) or "gelu".
+        scaled_outputs: False (default): the output layer predicts q and p themselves.
+            True: it predicts y, and q = Q_MID + Q_HALF · y_q, p = P_MAX · y_p (needs
+            ``n_outputs = 2``).
+
+    Raises:
+        ValueError: ``scaled_outputs`` with ``n_outputs`` other than 2.
     """
 
     def __init__(self, d_model, nhead, num_layers, dim_feedforward, n_outputs,
                  dropout=0.0, time_scale=99 / 2, query_attention=True, norm_first=False,
-                 activation="relu"):
+                 activation="relu", scaled_outputs=False):
         super().__init__()
+        if scaled_outputs and n_outputs != 2:
+            raise ValueError(f"scaled_outputs needs n_outputs = 2 (q and p), got {n_outputs}")
+        self.scaled_outputs = bool(scaled_outputs)
         self.d_model = d_model
         self.time_scale = time_scale
         self.query_attention = query_attention
@@ -205,7 +218,10 @@ class TimeDecoder(nn.Module):
                 h = layer(h, memory)
         if self.final_norm is not None:
             h = self.final_norm(h)
-        return self.head(h)
+        y = self.head(h)
+        if self.scaled_outputs:
+            y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
+        return y
 
 
 class OperatorNet(NN):

@@ -42,6 +42,7 @@ class MambONet(OperatorNet):
         dropout: decoder dropout (default 0).
         n_sensors, n_outputs, time_scale, query_attention, norm_first, activation: as
             :class:`~nh_operators.models.TraONet` (the last two for the decoder).
+        scaled_outputs: as :class:`~nh_operators.models.TraONet` (default False).
         initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), embedded
             as one token at the start of the scan (default False: rest at q = 0).
         state_in_queries: as :class:`~nh_operators.models.TraONet`.
@@ -60,7 +61,7 @@ class MambONet(OperatorNet):
                  dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
                  n_sensors=100, n_outputs=2, time_scale=99 / 2, query_attention=True,
                  norm_first=False, activation="relu", initial_state=False,
-                 state_in_queries=False):
+                 state_in_queries=False, scaled_outputs=False):
         super().__init__()
         self.initial_state = bool(initial_state)
         self._state_modules(d_model, state_in_queries)
@@ -75,7 +76,7 @@ class MambONet(OperatorNet):
         self.norm = nn.LayerNorm(d_model)
         self.decoder = TimeDecoder(d_model, nhead, num_decoder_layers, dim_feedforward,
                                    n_outputs, dropout, time_scale, query_attention,
-                                   norm_first, activation)
+                                   norm_first, activation, scaled_outputs)
 
     def _forward(self, V, t):
         V, state = self._sensors_and_state(V)

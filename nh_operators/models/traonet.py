@@ -1,14 +1,8 @@
 """TraONet: a transformer encoder over the potential, a transformer decoder over time."""
 
-import math
-
 import torch
 
 from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
-
-#: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],
-#: and |p| ≤ sqrt(2 (V0 − min V)) ≤ sqrt(8) for the generator's V ≥ −2.
-Q_MID, Q_HALF, P_MAX = 0.5, 0.5, math.sqrt(8.0)
 
 __all__ = ["TraONet"]
 
@@ -73,17 +67,12 @@ class TraONet(OperatorNet):
                                            dropout, activation, norm_first)
         self.decoder = TimeDecoder(d_model, nhead, num_layers, dim_feedforward,
                                    n_outputs, dropout, time_scale, query_attention,
-                                   norm_first, activation)
-        if scaled_outputs and n_outputs != 2:
-            raise ValueError(f"scaled_outputs needs n_outputs = 2 (q and p), got {n_outputs}")
-        self.scaled_outputs = bool(scaled_outputs)
+                                   norm_first, activation, scaled_outputs)
+        self.scaled_outputs = self.decoder.scaled_outputs
 
     def _forward(self, V, t):
         V, state = self._sensors_and_state(V)
         tokens = self.embedding(V)
         if state is not None:
             tokens = torch.cat([self.state_embedding(state), tokens], dim=1)
-        y = self.decoder(t, self.encoder(tokens), self._query_bias(state))
-        if self.scaled_outputs:
-            y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
-        return y
+        return self.decoder(t, self.encoder(tokens), self._query_bias(state))

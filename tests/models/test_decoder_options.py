@@ -64,20 +64,19 @@ def test_default_layout_keeps_the_shipped_state_dict_keys():
     assert not any("final_norm" in k or k.startswith("encoder.norm") for k in keys)
 
 
-def test_traonet_scaled_outputs_is_an_affine_map_of_the_same_head():
+@pytest.mark.parametrize("name", ["traonet", "mambonet"])
+def test_scaled_outputs_is_an_affine_map_of_the_same_head(name):
     """scaled_outputs=True: same parameters, q = 0.5 + 0.5 y_q, p = sqrt(8) y_p."""
     V = torch.randn(3, 100, generator=torch.Generator().manual_seed(1))
     t = torch.linspace(0, 2, 7)[:, None]
     nets = []
     for scaled in (False, True):
         torch.manual_seed(0)
-        nets.append(TraONet(d_model=16, nhead=2, num_layers=1, dim_feedforward=32,
-                            scaled_outputs=scaled))
+        nets.append(tiny(name, scaled_outputs=scaled))
     assert list(nets[0].state_dict()) == list(nets[1].state_dict())
     with torch.no_grad():
         plain, scaled = nets[0]((V, t)), nets[1]((V, t))
     torch.testing.assert_close(scaled[..., 0], 0.5 + 0.5 * plain[..., 0])
     torch.testing.assert_close(scaled[..., 1], math.sqrt(8.0) * plain[..., 1])
     with pytest.raises(ValueError, match="scaled_outputs needs n_outputs = 2"):
-        TraONet(d_model=16, nhead=2, num_layers=1, dim_feedforward=32, n_outputs=1,
-                scaled_outputs=True)
+        tiny(name, n_outputs=1, scaled_outputs=True)
