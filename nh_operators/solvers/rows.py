@@ -17,7 +17,7 @@ from .._constants import TIMES
 from ..potentials import _spline_kernels
 from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
-from . import _kernels, _orbit
+from . import _curve_fixed, _kernels, _orbit
 from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
 from .schemes import MAX_STEPS, ORDERS, _method
 
@@ -40,6 +40,8 @@ class RowSource:
         params: (N, P) float64, row i's parameters (one dummy row for a formula).
         compiled: whether the parallel kernels can run.
         smooth: whether V is C² (see :func:`solve_rows`).
+        curve: the rows are B-spline curves; RK4 then runs in the curve parameter
+            (:mod:`._curve_fixed`: no inversion of q(λ) per force).
     """
 
     force: object
@@ -47,13 +49,14 @@ class RowSource:
     params: np.ndarray
     compiled: bool
     smooth: bool = True
+    curve: bool = False
 
     def subset(self, rows):
         """The rows ``rows`` as a source of their own (a formula's stays as it is)."""
         if self.params.shape[0] == 1:
             return self
         return RowSource(self.force, self.value, self.params[rows], self.compiled,
-                         self.smooth)
+                         self.smooth, self.curve)
 
     def _at(self, fn, x, rows):
         x = np.asarray(x, dtype=np.float64)
@@ -97,7 +100,7 @@ def row_source(pot, information):
         return RowSource(_spline_kernels.grid_force, _spline_kernels.grid_value, params, True)
     if isinstance(pot, BoundedPotential):
         return RowSource(_spline_kernels.bspline_force, _spline_kernels.bspline_value,
-                         pot.params, True)
+                         pot.params, True, curve=True)
     smooth = bool(getattr(pot, "smooth", True))
     fns = compiled_functions(pot, after=1)  # compiled from its second solve on
     if fns is not None:
@@ -143,7 +146,9 @@ def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
         hs, nsteps = _grids(work, substeps, interval)
     oq = np.empty((rows.size, work.shape[-1]))
     op = np.empty_like(oq)
-    if src.compiled:
+    if src.curve and rk4:
+        _curve_fixed.curve_rows_fixed(src.params, rows, work, hs, nsteps, oq, op, q0s, p0s)
+    elif src.compiled:
         _kernels.rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
                             oq, op, q0s, p0s)
     else:

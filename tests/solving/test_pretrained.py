@@ -32,8 +32,12 @@ def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
     q, p = model(V, nh.TIMES)
     q_ref, p_ref = nh.PHYSICAL_POTENTIALS["sho"].exact(nh.TIMES)
     loss = 0.5 * (np.mean((q[0] - q_ref) ** 2) + np.mean((p[0] - p_ref) ** 2))
-    # the shipped metrics say what this model scores on the SHO: check it reproduces
-    assert loss == pytest.approx(model.metrics["evaluation"]["physical"]["sho"], rel=1e-4)
+    # the shipped metrics say what this model scores on the SHO: check it reproduces. The
+    # RMS error, not the loss, to float32 resolution: a float32 forward rounds differently
+    # on CPUs with other vector units (seen: phaseonet-paper-states, RMS 7.7e-4 moved 1e-7
+    # between two machines, 2.5e-4 of its loss), and a loss of a small error magnifies it.
+    expected = model.metrics["evaluation"]["physical"]["sho"]
+    assert abs(np.sqrt(loss) - np.sqrt(expected)) < 1e-6
 
 
 @pytest.mark.parametrize("name", available_pretrained())
