@@ -57,7 +57,6 @@ def _predict(args):
 
     from .._constants import TIMES
     from .._metrics import loss_per_sample
-    from ..evaluation import plot_trajectory, save_figure
     from ..potentials import as_potential
     from ..solvers import solve_classical
     from ..solving import solve
@@ -82,7 +81,9 @@ def _predict(args):
     for i in rows:
         print(f"{times[i]:8.4f} {sol.q[i]:12.6f} {sol.p[i]:12.6f} "
               f"{abs(sol.q[i] - ref.q[i]):11.2e} {abs(sol.p[i] - ref.p[i]):11.2e}")
-    if args.out:
+    if args.out:  # the plotting modules (matplotlib, scipy) load only for a figure
+        from ..evaluation import plot_trajectory, save_figure
+
         order = np.argsort(times, kind="stable")
         fig = plot_trajectory(pot, times[order], ref.q[order], ref.p[order],
                               sol.q[order], sol.p[order], label=sol.method,
