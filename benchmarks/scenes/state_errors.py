@@ -1,0 +1,91 @@
+"""Where a state network's error is (issue 26): per-row L_tot on a test set with states.
+
+For a shipped network that reads a state (default ``phaseonet-paper-states``) on a test
+set with states (``--data``, e.g. ``paper-states-test.h5``), at the 100 times of
+:data:`~nh_operators.TIMES`, float32 as shipped:
+
+- the mean and median L_tot, on the rows the generator drew near a separatrix
+  (``near_separatrix``) and on the others, and the share of the mean carried by the worst
+  1 % and 10 % of rows;
+- RK4 on the sensors at 64 substeps on the same rows: what the 100 sensors allow (the
+  information floor), so that a gap is the network's and not the sensors';
+- for a PhaseONet, on the worst ``--worst`` rows: the relative error of its period T
+  (quadrature on the sensor spline) against the classical orbit solver's
+  (:func:`~nh_operators.solvers.periodic.orbit_periods`, to about 1e-14) on the same
+  spline, and whether the turning points agree: if they do, the error is in the learned
+  shape in phase.
+
+Run it with::
+
+    python benchmarks/scenes/state_errors.py --data paper-states-test.h5 \\
+        [--model phaseonet-paper-states] [--worst 200]
+"""
+
+import argparse
+
+import numpy as np
+import torch
+
+import nh_operators as nh
+from nh_operators.data import load_dataset
+from nh_operators.solvers.periodic import orbit_periods
+from nh_operators.solvers.rows import row_source
+
+
+def l_tot(q, p, ds):
+    return 0.5 * (((q - ds.q) ** 2).mean(axis=1) + ((p - ds.p) ** 2).mean(axis=1))
+
+
+def summary(name, L, near):
+    order = np.sort(L)[::-1]
+    k1, k10 = max(1, L.size // 100), max(1, L.size // 10)
+    print(f"| {name} | {L.mean():.3g} | {np.median(L):.3g} | {L[near].mean():.3g} | "
+          f"{L[~near].mean():.3g} | {order[:k1].sum() / L.sum():.0%} | "
+          f"{order[:k10].sum() / L.sum():.0%} |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", required=True, help="a labelled test set with states (.h5)")
+    ap.add_argument("--model", default="phaseonet-paper-states")
+    ap.add_argument("--worst", type=int, default=200)
+    args = ap.parse_args()
+    torch.set_num_threads(1)
+    ds = load_dataset(args.data)
+    if ds.q0 is None:
+        raise SystemExit(f"{args.data} holds no states (generate a -states- preset)")
+    V, q0, p0 = np.asarray(ds.V), np.asarray(ds.q0), np.asarray(ds.p0)
+    near = np.asarray(ds.near_separatrix).astype(bool)
+    model = nh.pretrained(args.model)
+    x = torch.tensor(np.c_[V, q0, p0], dtype=torch.float32)  # the network as shipped
+    with torch.no_grad():
+        y = model.net((x, torch.tensor(nh.TIMES[:, None], dtype=torch.float32)))
+    y = y.numpy().astype(np.float64)
+    L = l_tot(y[..., 0], y[..., 1], ds)
+    q_s, p_s = nh.integrate_sensors(V, nh.TIMES, substeps=64, q0=q0, p0=p0,
+                                    check_resolution=False)
+    print(f"{args.data}: {len(V)} rows, {near.mean():.1%} drawn near a separatrix\n")
+    print("| method | mean | median | mean near a separatrix | mean elsewhere | "
+          "worst 1 % carry | worst 10 % carry |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    summary(args.model, L, near)
+    summary("RK4 on the sensors, 64 substeps", l_tot(q_s, p_s, ds), near)
+    if not hasattr(model.net, "state_orbit"):
+        return
+    worst = np.argsort(L)[::-1][:args.worst]
+    with torch.no_grad():
+        orbit = model.net.state_orbit(torch.tensor(np.c_[V, q0, p0][worst]))
+    out, status = orbit_periods(row_source(V[worst], "sensors"), np.arange(worst.size),
+                                q0[worst], p0[worst])
+    ok = status == 0
+    rel = np.abs(orbit["T"].numpy() / out[:, 0] - 1)[ok]
+    ends = np.maximum(np.abs(orbit["a"].numpy() - out[:, 2]),
+                      np.abs(orbit["b"].numpy() - out[:, 3]))[ok]
+    print(f"\nworst {worst.size} rows (L_tot {L[worst].min():.2g} to {L[worst].max():.2g}; "
+          f"{near[worst].mean():.0%} near a separatrix; orbit solver found {ok.sum()}): "
+          f"period relative error median {np.median(rel):.2g}, 90 % {np.quantile(rel, 0.9):.2g},"
+          f" max {rel.max():.2g}; turning points differ by at most {ends.max():.2g}")
+
+
+if __name__ == "__main__":
+    main()
