@@ -18,7 +18,8 @@ Plans:
   and **ours** (our network and recipe as shipped; seed 0); TraONet at the paper's
   size, reference and ours, seed 0.
 - ``cpu``: the same shapes at the ``cpu`` preset's depth (2 + 2 layers) and H = 32,
-  64, 128 / d = 16, 32, 64, seed 0 (the 2-core CPU cannot run more side by side).
+  64, 128 / d = 16, 32, 64, and TraONet at the ``cpu`` size, seed 0 (``--seeds 0 1``
+  for two; the 2-core CPU runs two at a time).
 
 Run it with::
 
@@ -64,17 +65,21 @@ def _size_args(model, size, plan):
     return []
 
 
-def plan_runs(plan):
-    """The runs of a plan: dicts with name, seed, group and the train arguments."""
+def plan_runs(plan, seeds=None):
+    """The runs of a plan: dicts with name, seed, group and the train arguments;
+    ``seeds`` replaces the plan's seeds for every combination."""
     preset = "paper" if plan == "gpu" else "cpu"
     sizes = {"gpu": {"varonet": (128, 256, 512), "mambonet": (32, 64, 128), "traonet": (64,)},
-             "cpu": {"varonet": (32, 64, 128), "mambonet": (16, 32, 64)}}[plan]
-    seeds = {"reference": (0, 1) if plan == "gpu" else (0,), "ours": (0,)}
+             "cpu": {"varonet": (32, 64, 128), "mambonet": (16, 32, 64),
+                     "traonet": (32,)}}[plan]
+    plan_seeds = {"reference": (0, 1) if plan == "gpu" else (0,), "ours": (0,)}
+    if seeds is not None:
+        plan_seeds = {"reference": tuple(seeds), "ours": tuple(seeds)}
     runs = []
     for model, model_sizes in sizes.items():
         for combo in ("reference", "ours"):
             for size in model_sizes:
-                for seed in seeds[combo] if model != "traonet" else (0,):
+                for seed in plan_seeds[combo] if model != "traonet" else (0,):
                     tag = "ref" if combo == "reference" else "ours"
                     args = ["--model", model, "--preset", preset, "--variant", combo,
                             "--recipe", combo, "--seed", str(seed),
@@ -134,16 +139,18 @@ def main():
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--jobs", type=int, default=2, help="runs at once (one thread each)")
     ap.add_argument("--only", nargs="*", help="run only these names (NAME or NAME-sSEED)")
+    ap.add_argument("--seeds", type=int, nargs="+",
+                    help="seeds of every run (default: the plan's, see above)")
     ap.add_argument("--params", action="store_true",
                     help="print each run's parameter count and stop (nothing is trained)")
     args = ap.parse_args()
     if args.params:
-        return print_params(plan_runs(args.plan))
+        return print_params(plan_runs(args.plan, args.seeds))
 
     out = Path(args.out)
     (out / "logs").mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
-    runs = plan_runs(args.plan)
+    runs = plan_runs(args.plan, args.seeds)
     if args.only:
         runs = [r for r in runs if r["name"] in args.only
                 or f"{r['name']}-s{r['seed']}" in args.only]
