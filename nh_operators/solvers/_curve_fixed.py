@@ -27,6 +27,7 @@ import numpy as np
 from ..potentials._spline_kernels import _JIT, _cubic, _dcubic
 from ..potentials.bspline import Q_OFFSET, V_OFFSET
 from ._curve_kernels import _curve_parameter
+from ._kernels import _hermite
 
 __all__ = ["curve_rows_fixed"]
 
@@ -51,14 +52,6 @@ def _q_at(par, lam):
     u = min(max(lam * pieces, 0.0), float(pieces))
     j = min(int(math.floor(u)), pieces - 1)
     return _cubic(par, Q_OFFSET + 4 * j, u - j)
-
-
-@numba.njit(**_JIT)
-def _hermite(theta, h, y0, d0, y1, d1):
-    t2 = theta * theta
-    t3 = t2 * theta
-    return ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + theta) * h * d0
-            + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * d1)
 
 
 @numba.njit(**_JIT)
