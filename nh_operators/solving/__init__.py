@@ -11,6 +11,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "calibration": ["CLASSICAL_TOLS", "LIMITS", "calibrate_pretrained",
                     "calibration_families", "upper_quantile"],
     "contract": ["Case", "contract_cases", "measure_contract", "network_estimates"],
+    "costs": ["SHORT_HORIZON", "horizon_share"],
     "estimate": ["CALIBRATION_QUANTILE", "calibrate", "calibrated", "estimate_at",
                  "propagated_error", "raw_estimate", "residuals", "spline_rows"],
     "many": ["ManySolution", "solve_many"],

@@ -38,6 +38,7 @@ from .._constants import SENSORS, TIMES
 from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import (CALIBRATION, WEIGHTS, available_pretrained, network_domain, reads_state,
                       resolve_pretrained)
+from .costs import _classical_seconds, _horizon_key, _input_kind, _neural_seconds
 from .estimate import (acceptance_rate, calibrated, cautious_acceptance_rate, estimate_at,
                        sensor_force)
 
@@ -153,43 +154,17 @@ def neural_raw(name, pot, information, t=TIMES, q0=0.0, p0=0.0):
     return qa[0], pa[0], (raw if np.isfinite(raw) else np.inf)  # inf: far outside [0, 1]
 
 
-#: Which of the calibration's classical timings applies to a kind of input.
-_TIMINGS = {"bspline": "classical_seconds", "sensors": "classical_seconds_sensors",
-            "formula": "classical_seconds_formula"}
-
-
-def _input_kind(pot, information):
-    from ..potentials import BoundedPotential
-
-    if information == "sensors":
-        return "sensors"
-    return "bspline" if isinstance(pot, BoundedPotential) else "formula"
-
-
-def _classical_seconds(calibration, tol, kind="bspline", batched=False):
-    tols = np.log10(calibration["classical_tols"])
-    seconds = calibration.get(_TIMINGS[kind], calibration["classical_seconds"])
-    if batched:  # per row inside solve_many, where calibrated (else one call's)
-        seconds = calibration.get(_TIMINGS[kind] + "_batched", seconds)
-    return float(np.interp(-np.log10(tol), -tols, seconds))
-
-
-def _neural_seconds(calibration, batched=False):
-    if batched:
-        return calibration.get("neural_seconds_batched", calibration["neural_seconds"])
-    return calibration["neural_seconds"]
-
-
 @functools.lru_cache(maxsize=256)
-def _ranked(tol, kind, calibrations, batched=False, states=False):
-    """(candidates, notes) for ``tol`` and a kind of input (:data:`_TIMINGS`): the
+def _ranked(tol, kind, calibrations, batched=False, states=False, horizon=None):
+    """(candidates, notes) for ``tol`` and a kind of input (:data:`.costs._TIMINGS`): the
     networks expected to be cheaper than the classical solve, as (name, expected
     seconds, share) cheapest first; cached per tolerance, kind and calibration
     (``calibrations``: ids, so a new one is seen). ``batched``: compare the per-row
     costs inside ``solve_many`` (a network's batched forward and estimate against the
     batched classical solve) instead of one call's. ``states``: the networks that read
     a starting state (:func:`reads_state`, for states other than (0, 0)), else the
-    others."""
+    others. ``horizon``: the latest asked time (:func:`_horizon_key`), which the
+    classical cost depends on (:func:`_classical_seconds`)."""
     candidates, notes = [], []
     for name in _networks():
         if reads_state(name) != states:
@@ -201,7 +176,7 @@ def _ranked(tol, kind, calibrations, batched=False, states=False):
         # one call counts on the share it would get from either generator; a batch
         # learns the share on its own rows from a pilot (solve_many)
         share = acceptance_rate(cal, tol) if batched else cautious_acceptance_rate(cal, tol)
-        t_cls = _classical_seconds(cal, tol, kind, batched)
+        t_cls = _classical_seconds(cal, tol, kind, batched, horizon)
         expected = _neural_seconds(cal, batched) + (1.0 - share) * t_cls
         if expected >= t_cls:
             notes.append(f"{name}: meets tol on {share:.0%} of its calibration set, "
@@ -228,7 +203,7 @@ def _choose(tol, values, t, kind, states=False):
     from ..potentials import domain_violations, in_domain
 
     candidates, notes = _ranked(tol, kind, tuple(id(_calibration(n)) for n in _networks()),
-                                False, states)
+                                False, states, _horizon_key(t))
     if not candidates:
         what = "reading a starting state " if states else ""
         return None, (f"no network {what}expected to be cheaper ("

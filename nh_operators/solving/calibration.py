@@ -20,6 +20,7 @@ from ..solvers import adaptive_solve
 from ..training import write_atomic
 from .auto_solve import _model, neural_raw, neural_solve
 from .catalog import CALIBRATION
+from .costs import SHORT_HORIZON
 from .estimate import calibrated, sensor_force
 
 __all__ = ["calibrate_pretrained", "calibration_families", "upper_quantile", "CLASSICAL_TOLS",
@@ -55,19 +56,22 @@ _TIMINGS = {}
 
 def _classical_timings(key, pots):
     """The classical solve's median seconds at each of :data:`CLASSICAL_TOLS` on ``pots``
-    (exact), their sensor values and three smooth formulas; measured once per process
-    and dataset (``key``), as they do not depend on the network."""
+    (exact), their sensor values and three smooth formulas, on the whole grid and (the
+    ``_short`` fields) on its times up to :data:`~.costs.SHORT_HORIZON`; measured once
+    per process and dataset (``key``), as they do not depend on the network."""
     if key not in _TIMINGS:
         sensors = [pot.V(SENSORS) for pot in pots]
         formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
+        short = TIMES[TIMES <= SHORT_HORIZON + 1e-12]
         _TIMINGS[key] = {
-            field: [_median_seconds(
-                lambda pot: adaptive_solve(pot, information, TIMES, tol, "rk4"), items)
+            field + suffix: [_median_seconds(
+                lambda pot: adaptive_solve(pot, information, times, tol, "rk4"), items)
                 for tol in CLASSICAL_TOLS]
             for field, items, information in (
                 ("classical_seconds", pots, "exact V"),
                 ("classical_seconds_sensors", sensors, "sensors"),
-                ("classical_seconds_formula", formulas, "exact V"))}
+                ("classical_seconds_formula", formulas, "exact V"))
+            for suffix, times in (("", TIMES), ("_short", short))}
     return _TIMINGS[key]
 
 
@@ -237,8 +241,8 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         ``estimate_over_true_median`` (in distribution),
         ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
         the in-distribution family, at ``probabilities``), ``neural_seconds``,
-        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula), their
-        per-row costs inside ``solve_many`` (``neural_seconds_batched``,
+        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula; each also
+        ``_short``, up to :data:`~.costs.SHORT_HORIZON`), their per-row costs inside ``solve_many`` (``neural_seconds_batched``,
         ``classical_seconds_batched``, ``classical_seconds_sensors_batched``) and
         ``device``.
     """

@@ -28,9 +28,9 @@ from ..potentials import BoundedPotential, check_bounded, in_domain
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
-from .auto_solve import (DEFAULT_TOL, _calibration, _checked, _classical_seconds, _model,
-                         _neural_seconds, _ranked, _solve, network_input)
+from .auto_solve import DEFAULT_TOL, _calibration, _checked, _model, _ranked, _solve, network_input
 from .catalog import network_domain, reads_state
+from .costs import _classical_seconds, _horizon_key, _neural_seconds
 from .estimate import calibrated, estimate_at, sensor_force
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
@@ -52,11 +52,13 @@ def _record(tried, name, rows, accepted):
         tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
 
 
-def _worth_it(name, share, tol, kind):
+def _worth_it(name, share, tol, kind, horizon=None):
     """Whether accepting ``share`` of the rows pays for a network's batched cost: share ·
-    T_classical > T_network, both per row as measured at calibration."""
+    T_classical > T_network, both per row as measured at calibration, the classical one
+    up to the latest asked time ``horizon``."""
     cal = _calibration(name)
-    return share * _classical_seconds(cal, tol, kind, True) > _neural_seconds(cal, True)
+    return (share * _classical_seconds(cal, tol, kind, True, horizon)
+            > _neural_seconds(cal, True))
 
 
 #: Rows from which a progress bar is shown (``progress=None``).
@@ -229,7 +231,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         kind = "sensors" if V is not None else "bspline"
         ids = tuple(id(_calibration(nn)) for nn in networks)
         names = [c[0] for states in (False, True)   # at rest, then from other states
-                 for c in _ranked(tol, kind, ids, True, states)[0]]
+                 for c in _ranked(tol, kind, ids, True, states, _horizon_key(t))[0]]
     else:
         names = []
     if names:
@@ -269,7 +271,7 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
                 free[part[take]] = False
                 classical_rows = np.setdiff1d(classical_rows, part[take])
                 if part is rows and rest_rows.size and not _worth_it(
-                        name, take.mean(), tol, kind):
+                        name, take.mean(), tol, kind, _horizon_key(t)):
                     tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
                                             f"{part.size} rows: not worth its cost")
                     break
