@@ -20,6 +20,8 @@ import numba
 import numpy as np
 import torch
 
+from ._orbit_shape import harmonic_shape, invert_row, shape_table
+
 __all__ = ["SensorSpline", "orbit"]
 
 
@@ -185,12 +187,15 @@ def _integrand(c, pieces, a, L, E, x):
 
 
 @numba.njit(cache=True, nogil=True)
-def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces):
-    """T, the phase before its sign, U at ``nodes`` and s0 of :func:`orbit`, row by
+def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid):
+    """T, the phase before its sign, U at ``nodes``, s0 of :func:`orbit`, and with
+    ``grid`` > 0 the computed shape (Q, P) of :func:`._orbit_shape.shape_table`, row by
     row (the same formulas; libm's cos, sin and sqrt instead of torch's)."""
     rows, n_nodes, n_rule = a.shape[0], nodes.shape[0], s.shape[0]
     T, phase, s0s = np.empty(rows), np.empty(rows), np.empty(rows)
     U = np.empty((rows, n_nodes))
+    Q, P = np.empty((rows, grid)), np.empty((rows, grid))
+    f, speed = np.empty(n_rule), np.empty(n_rule)
     for r in range(rows):
         c, e = coefficients[r], E[r]
         L = max(b[r] - a[r], 1e-12)
@@ -198,16 +203,21 @@ def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces):
             q = a[r] + L * (1 - math.cos(math.pi * nodes[k])) / 2
             U[r, k] = max(e - _spline_value(c, pieces, q), 1e-300)
         total = 0.0
-        for k in range(n_rule):
-            total += _integrand(c, pieces, a[r], L, e, s[k]) * w[k]
+        for k in range(n_rule):   # _integrand, keeping |p| for the shape
+            q = a[r] + L * (1 - math.cos(math.pi * s[k])) / 2
+            speed[k] = math.sqrt(2 * max(e - _spline_value(c, pieces, q), 1e-300))
+            f[k] = L * (math.pi / 2) * math.sin(math.pi * s[k]) / speed[k]
+            total += f[k] * w[k]
         T[r] = 2 * total
+        if grid > 0:
+            invert_row(f, speed, s, w, T[r], L, Q[r], P[r])
         s0 = math.acos(min(max(1 - 2 * (q0[r] - a[r]) / L, -1.0), 1.0)) / math.pi
         total = 0.0
         for k in range(n_rule):
             total += _integrand(c, pieces, a[r], L, e, s0 * s[k]) * w[k]
         phase[r] = s0 * total / T[r]
         s0s[r] = s0
-    return T, phase, U, s0s
+    return T, phase, U, s0s, Q, P
 
 
 #: Orbits narrower than this (in q) take the harmonic limit of their well's bottom: there
@@ -224,7 +234,7 @@ def composite_rule(panels, nodes):
     return torch.tensor(s), torch.tensor(np.tile(v / (2 * panels), panels))
 
 
-def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
+def orbit(spline, V, q0, p0, s, w, steps=48, rule=None, shape_grid=0):
     """The orbit through (q0, p0) in the sensor spline of each row's V.
 
     Args:
@@ -236,12 +246,16 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
         rule: (s, w) of the quadrature of T and u0 (default ``(s, w)``); a composite rule
             (:func:`composite_rule`) resolves the slow passage over a barrier top that an
             orbit just above a separatrix makes inside [a, b].
+        shape_grid: with a positive count, also the orbit's shape computed on that many
+            nodes of the half-phase (:mod:`._orbit_shape`, on the rule of T).
 
     Returns:
         dict with a, b, E, T, u0 of shape (B,) and U (B, K) = E − V at the nodes
         q = a + (b − a)(1 − cos πs)/2 (clamped at 1e-300 above zero). An orbit narrower
         than :data:`NARROW` gets the harmonic limit: T = 2π / sqrt(V″) at its middle,
-        u0 from q = a + L (1 − cos 2πu)/2, and U ∝ sin²(πs) scaled by V″ L² / 8.
+        u0 from q = a + L (1 − cos 2πu)/2, and U ∝ sin²(πs) scaled by V″ L² / 8. With
+        ``shape_grid``, also Q and P (B, shape_grid): q = a + L Q(h), |p| = (L / T) P(h)
+        at the half-phase h (the harmonic orbit's for a narrow one).
     """
     coef_map, grid_map, grid = spline.maps(V.device)
     coefficients = V @ coef_map
@@ -262,13 +276,16 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
         # a function of the input alone: one compiled pass instead of (B, K) tensors
         out = _quadrature_compiled(*(x.detach().numpy() for x in (coefficients, a, b, E, q0,
                                                                   nodes, rule_s, rule_w)),
-                                   spline.pieces)
-        T, phase, U, s0 = (torch.from_numpy(x) for x in out)
+                                   spline.pieces, shape_grid)
+        T, phase, U, s0, Q, P = (torch.from_numpy(x) for x in out)
     else:
         f, U = integrand(s[None].expand(len(V), -1))
+        U_rule = U
         if rule is not None:
-            f, _ = integrand(rule_s[None].expand(len(V), -1))
+            f, U_rule = integrand(rule_s[None].expand(len(V), -1))
         T = 2 * (f @ rule_w)
+        if shape_grid:
+            Q, P = shape_table(f, torch.sqrt(2 * U_rule), rule_s, rule_w, T, L, shape_grid)
         s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
         f0, _ = integrand(s0[:, None] * rule_s[None])
         phase = s0 * (f0 @ rule_w) / T
@@ -279,5 +296,12 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None):
         phase = torch.where(narrow, s0 / 2, phase)
         harmonic = (curvature * L * L / 8)[:, None] * torch.sin(math.pi * nodes)[None] ** 2
         U = torch.where(narrow[:, None], harmonic.clamp(min=1e-300), U)
+        if shape_grid:
+            Qh, Ph = harmonic_shape(shape_grid, Q.dtype, Q.device)
+            Q = torch.where(narrow[:, None], Qh, Q)
+            P = torch.where(narrow[:, None], Ph, P)
     u0 = torch.where(p0 >= 0, phase, 1 - phase)
-    return {"a": a, "b": b, "E": E, "T": T, "u0": u0, "U": U}
+    out = {"a": a, "b": b, "E": E, "T": T, "u0": u0, "U": U}
+    if shape_grid:
+        out.update(Q=Q, P=P)
+    return out

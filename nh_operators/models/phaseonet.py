@@ -104,6 +104,12 @@ class PhaseONet(OperatorNet):
             a barrier passes its top slowly, a peak inside [a, b] that a single rule
             of 64 nodes resolves poorly; ``tests/models/test_phaseonet_states.py``
             checks the period 1e-4 above a barrier against adaptive quadrature).
+        shape: with ``initial_state``, where Q and P start: "learned" (default) from
+            the harmonic orbit, the MLP learning the whole shape; "quadrature" from the
+            shape computed by inverting the phase integral on the same composite rule
+            (:mod:`nh_operators.models._orbit_shape`: a classical solve of the orbit in
+            the sensor spline, at the sensors' information floor), the MLP learning a
+            correction that starts at zero (its last layer is zero at construction).
 
     Input ``(V, t)``: V (B, m) with V0 at both walls and V < V0 inside (the network
     clamps V0 − V at 1e-12; out-of-domain input is the domain check's job), or
@@ -121,8 +127,14 @@ class PhaseONet(OperatorNet):
 
     def __init__(self, width=128, depth=2, basis=32, grid=256, nodes=64, activation="gelu",
                  n_sensors=100, n_outputs=2, head="phase", horizon=2.0, initial_state=False,
-                 panels=32):
+                 panels=32, shape="learned"):
         super().__init__()
+        if shape not in ("learned", "quadrature"):
+            raise ValueError(f"shape must be 'learned' or 'quadrature', got {shape!r}")
+        if shape == "quadrature" and not initial_state:
+            raise ValueError("shape='quadrature' needs initial_state=True (it inverts the "
+                             "phase integral of the state's orbit)")
+        self.shape = shape
         if head not in ("phase", "time"):
             raise ValueError(f"head must be 'phase' or 'time', got {head!r}")
         if initial_state and (head != "phase" or n_outputs != 2):
@@ -171,6 +183,9 @@ class PhaseONet(OperatorNet):
             layers += [torch.nn.Linear(d, width), acts[activation]()]
             d = width
         layers.append(torch.nn.Linear(d, n_outputs * basis))
+        if shape == "quadrature":   # start at the computed shape
+            torch.nn.init.zeros_(layers[-1].weight)
+            torch.nn.init.zeros_(layers[-1].bias)
         self.branch = torch.nn.Sequential(*layers)
 
     def period(self, V):
@@ -187,7 +202,8 @@ class PhaseONet(OperatorNet):
         sensors, state = self._sensors_and_state(V.to(torch.float64))
         s, w = (a.to(V.device) for a in self._nodes)
         rule = tuple(a.to(V.device) for a in self._rule)
-        return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w, rule=rule)
+        return orbit(self._spline, sensors, state[:, 0], state[:, 1], s, w, rule=rule,
+                     shape_grid=self.grid if self.shape == "quadrature" else 0)
 
     def _forward(self, V, t):
         if self.initial_state:
@@ -201,7 +217,9 @@ class PhaseONet(OperatorNet):
         r = self.basis.shape[1]
         # Per output a plain 2-D product and 2-D gathers: contiguous operands are what
         # keeps this head cheap next to the MLP on a CPU.
-        shapes = [torch.addmm(self.out_shift[k, 0], coeffs[:, k * r:(k + 1) * r],
+        shift = ([o["Q"].to(coeffs.dtype), o["P"].to(coeffs.dtype)]
+                 if self.shape == "quadrature" else [s[0] for s in self.out_shift])
+        shapes = [torch.addmm(shift[k], coeffs[:, k * r:(k + 1) * r],
                               self.basis[k] * self.out_scale[k, 0])
                   for k in range(self.n_outputs)]                 # each (B, grid)
         if self.head == "time":

@@ -67,7 +67,7 @@ def horizon_share(short_share, horizon):
     """
     end = TIMES[-1]
     c0 = min(max((short_share - SHORT_HORIZON / end) / (1 - SHORT_HORIZON / end), 0.0), 1.0)
-    return c0 + (1 - c0) * min(max(horizon, 0.0), end) / end
+    return float(c0 + (1 - c0) * min(max(horizon, 0.0), end) / end)
 
 
 def _neural_seconds(calibration, batched=False):
