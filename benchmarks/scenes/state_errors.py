@@ -15,10 +15,15 @@ set with states (``--data``, e.g. ``paper-states-test.h5``), at the 100 times of
   spline, and whether the turning points agree: if they do, the error is in the learned
   shape in phase.
 
+``--model`` may be given more than once (a shipped name or a run directory; the worst
+rows are those of the first); ``--computed`` adds PhaseONet's computed shape with no
+learned correction (``shape="quadrature"`` at its construction, float32);
+``--validation`` scores the validation split of a training set instead of a whole file.
+
 Run it with::
 
     python benchmarks/scenes/state_errors.py --data paper-states-test.h5 \\
-        [--model phaseonet-paper-states] [--worst 200]
+        [--model phaseonet-paper-states] [--computed] [--worst 200]
 """
 
 import argparse
@@ -28,8 +33,24 @@ import torch
 
 import nh_operators as nh
 from nh_operators.data import load_dataset
+from nh_operators.models import PhaseONet
+from nh_operators.training import load_model
 from nh_operators.solvers.periodic import orbit_periods
 from nh_operators.solvers.rows import row_source
+
+
+class Truth:
+    """The labels of the scored rows."""
+
+    def __init__(self, q, p):
+        self.q, self.p = np.asarray(q), np.asarray(p)
+
+
+def _network(name):
+    """A shipped model's network (eval mode, float32), or a run directory's."""
+    if name in nh.available_pretrained():
+        return nh.pretrained(name).net
+    return load_model(name)[0].eval()
 
 
 def l_tot(q, p, ds):
@@ -47,34 +68,55 @@ def summary(name, L, near):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="a labelled test set with states (.h5)")
-    ap.add_argument("--model", default="phaseonet-paper-states")
+    ap.add_argument("--model", action="append",
+                    help="a shipped model or a run directory (repeatable; default "
+                         "phaseonet-paper-states)")
+    ap.add_argument("--computed", action="store_true",
+                    help="also PhaseONet's computed shape without a learned correction")
+    ap.add_argument("--validation", action="store_true",
+                    help="score the validation split of --data (a training set)")
     ap.add_argument("--worst", type=int, default=200)
     args = ap.parse_args()
     torch.set_num_threads(1)
     ds = load_dataset(args.data)
     if ds.q0 is None:
         raise SystemExit(f"{args.data} holds no states (generate a -states- preset)")
-    V, q0, p0 = np.asarray(ds.V), np.asarray(ds.q0), np.asarray(ds.p0)
-    near = np.asarray(ds.near_separatrix).astype(bool)
-    model = nh.pretrained(args.model)
-    x = torch.tensor(np.c_[V, q0, p0], dtype=torch.float32)  # the network as shipped
-    with torch.no_grad():
-        y = model.net((x, torch.tensor(nh.TIMES[:, None], dtype=torch.float32)))
-    y = y.numpy().astype(np.float64)
-    L = l_tot(y[..., 0], y[..., 1], ds)
+    rows = ds.split_indices()[1] if args.validation else np.arange(len(ds))
+    V, q0, p0 = (np.asarray(a)[rows] for a in (ds.V, ds.q0, ds.p0))
+    near = np.asarray(ds.near_separatrix)[rows].astype(bool)
+    truth = Truth(ds.q[rows], ds.p[rows])
+    names = args.model or ["phaseonet-paper-states"]
+    nets = [(name, _network(name)) for name in names]
+    if args.computed:
+        torch.manual_seed(0)   # the last layer is zero: the seed does not matter
+        nets.append(("computed shape, no learned correction",
+                     PhaseONet(initial_state=True, shape="quadrature").eval()))
+    x = torch.tensor(np.c_[V, q0, p0], dtype=torch.float32)  # the networks as shipped
+    losses = []
+    for _, net in nets:
+        with torch.no_grad():
+            y = torch.cat([net((x[i:i + 4096], torch.tensor(nh.TIMES[:, None],
+                                                            dtype=torch.float32)))
+                           for i in range(0, len(x), 4096)])
+        y = y.numpy().astype(np.float64)
+        losses.append(l_tot(y[..., 0], y[..., 1], truth))
     q_s, p_s = nh.integrate_sensors(V, nh.TIMES, substeps=64, q0=q0, p0=p0,
                                     check_resolution=False)
-    print(f"{args.data}: {len(V)} rows, {near.mean():.1%} drawn near a separatrix\n")
+    what = "validation split" if args.validation else "all rows"
+    print(f"{args.data} ({what}): {len(V)} rows, {near.mean():.1%} drawn near a "
+          f"separatrix\n")
     print("| method | mean | median | mean near a separatrix | mean elsewhere | "
           "worst 1 % carry | worst 10 % carry |")
     print("|---|---:|---:|---:|---:|---:|---:|")
-    summary(args.model, L, near)
-    summary("RK4 on the sensors, 64 substeps", l_tot(q_s, p_s, ds), near)
-    if not hasattr(model.net, "state_orbit"):
+    for (name, _), L in zip(nets, losses):
+        summary(name, L, near)
+    summary("RK4 on the sensors, 64 substeps", l_tot(q_s, p_s, truth), near)
+    L, net = losses[0], nets[0][1]
+    if not hasattr(net, "state_orbit"):
         return
     worst = np.argsort(L)[::-1][:args.worst]
     with torch.no_grad():
-        orbit = model.net.state_orbit(torch.tensor(np.c_[V, q0, p0][worst]))
+        orbit = net.state_orbit(torch.tensor(np.c_[V, q0, p0][worst]))
     out, status = orbit_periods(row_source(V[worst], "sensors"), np.arange(worst.size),
                                 q0[worst], p0[worst])
     ok = status == 0
