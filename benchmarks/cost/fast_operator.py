@@ -60,6 +60,11 @@ ROWS = {
     "grid64": ({"grid": 64}, "100k"),
     "relu": ({"activation": "relu"}, "100k"),
     "data10k": ({}, "10k"),
+    # the shape computed by inverting the period's quadrature, the MLP a correction
+    "quadrature": ({"shape": "quadrature"}, "100k"),
+    "quadrature-nodes128": ({"shape": "quadrature", "nodes": 128}, "100k"),
+    "quadrature-small": ({"shape": "quadrature", "width": 32, "depth": 1, "basis": 8},
+                         "100k"),
 }
 INFERENCE_ROWS = ("bfloat16", "torchscript", "compile", "threads2")
 FILES = {"100k": "{}-extended.h5", "10k": "{}-standard.h5"}

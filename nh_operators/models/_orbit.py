@@ -195,7 +195,7 @@ def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid):
     T, phase, s0s = np.empty(rows), np.empty(rows), np.empty(rows)
     U = np.empty((rows, n_nodes))
     Q, P = np.empty((rows, grid)), np.empty((rows, grid))
-    f, speed = np.empty(n_rule), np.empty(n_rule)
+    f = np.empty(n_rule)
     for r in range(rows):
         c, e = coefficients[r], E[r]
         L = max(b[r] - a[r], 1e-12)
@@ -203,14 +203,12 @@ def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid):
             q = a[r] + L * (1 - math.cos(math.pi * nodes[k])) / 2
             U[r, k] = max(e - _spline_value(c, pieces, q), 1e-300)
         total = 0.0
-        for k in range(n_rule):   # _integrand, keeping |p| for the shape
-            q = a[r] + L * (1 - math.cos(math.pi * s[k])) / 2
-            speed[k] = math.sqrt(2 * max(e - _spline_value(c, pieces, q), 1e-300))
-            f[k] = L * (math.pi / 2) * math.sin(math.pi * s[k]) / speed[k]
+        for k in range(n_rule):
+            f[k] = _integrand(c, pieces, a[r], L, e, s[k])
             total += f[k] * w[k]
         T[r] = 2 * total
         if grid > 0:
-            invert_row(f, speed, s, w, T[r], L, Q[r], P[r])
+            invert_row(f, s, w, T[r], Q[r], P[r])
         s0 = math.acos(min(max(1 - 2 * (q0[r] - a[r]) / L, -1.0), 1.0)) / math.pi
         total = 0.0
         for k in range(n_rule):
@@ -280,12 +278,11 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None, shape_grid=0):
         T, phase, U, s0, Q, P = (torch.from_numpy(x) for x in out)
     else:
         f, U = integrand(s[None].expand(len(V), -1))
-        U_rule = U
         if rule is not None:
-            f, U_rule = integrand(rule_s[None].expand(len(V), -1))
+            f, _ = integrand(rule_s[None].expand(len(V), -1))
         T = 2 * (f @ rule_w)
         if shape_grid:
-            Q, P = shape_table(f, torch.sqrt(2 * U_rule), rule_s, rule_w, T, L, shape_grid)
+            Q, P = shape_table(f, rule_s, rule_w, T, shape_grid)
         s0 = torch.arccos((1 - 2 * (q0 - a) / L).clamp(-1.0, 1.0)) / math.pi
         f0, _ = integrand(s0[:, None] * rule_s[None])
         phase = s0 * (f0 @ rule_w) / T

@@ -19,6 +19,7 @@ import torch
 
 from ._layers import OperatorNet
 from ._orbit import SensorSpline, composite_rule, orbit
+from ._orbit_shape import invert_rows, shape_table
 
 __all__ = ["PhaseONet", "period_quadrature"]
 
@@ -104,12 +105,13 @@ class PhaseONet(OperatorNet):
             a barrier passes its top slowly, a peak inside [a, b] that a single rule
             of 64 nodes resolves poorly; ``tests/models/test_phaseonet_states.py``
             checks the period 1e-4 above a barrier against adaptive quadrature).
-        shape: with ``initial_state``, where Q and P start: "learned" (default) from
-            the harmonic orbit, the MLP learning the whole shape; "quadrature" from the
-            shape computed by inverting the phase integral on the same composite rule
-            (:mod:`nh_operators.models._orbit_shape`: a classical solve of the orbit in
-            the sensor spline, at the sensors' information floor), the MLP learning a
-            correction that starts at zero (its last layer is zero at construction).
+        shape: where Q and P start: "learned" (default) from the harmonic orbit, the
+            MLP learning the whole shape; "quadrature" from the shape computed by
+            inverting the phase integral on the rule of the period (with
+            ``initial_state`` the composite rule, at rest the ``nodes`` Gauss–Legendre
+            nodes; :mod:`nh_operators.models._orbit_shape`: a classical solve of the
+            orbit in the sensor spline), the MLP learning a correction that starts at
+            zero (its last layer is zero at construction). Phase head, q and p only.
 
     Input ``(V, t)``: V (B, m) with V0 at both walls and V < V0 inside (the network
     clamps V0 − V at 1e-12; out-of-domain input is the domain check's job), or
@@ -131,9 +133,9 @@ class PhaseONet(OperatorNet):
         super().__init__()
         if shape not in ("learned", "quadrature"):
             raise ValueError(f"shape must be 'learned' or 'quadrature', got {shape!r}")
-        if shape == "quadrature" and not initial_state:
-            raise ValueError("shape='quadrature' needs initial_state=True (it inverts the "
-                             "phase integral of the state's orbit)")
+        if shape == "quadrature" and (head != "phase" or n_outputs != 2):
+            raise ValueError("shape='quadrature' needs head='phase' and n_outputs=2 (it "
+                             "inverts the phase integral of the orbit)")
         self.shape = shape
         if head not in ("phase", "time"):
             raise ValueError(f"head must be 'phase' or 'time', got {head!r}")
@@ -158,6 +160,9 @@ class PhaseONet(OperatorNet):
         self._quadrature = {}
         self._quad_cpu = (torch.tensor(V0 * 2 * S.sum(0)), torch.tensor(-2 * S),
                           torch.tensor(w))
+        s, gw = np.polynomial.legendre.leggauss(nodes)   # the same rule's nodes in s
+        self._gauss = (torch.tensor((s + 1) / 2), torch.tensor(gw / 2),
+                       torch.tensor((math.pi / 2) * np.sin(np.pi * (s + 1) / 2)))
         # Grid coordinate: the half-phase h ∈ [0, 1/2] (or t / horizon ∈ [0, 1]).
         h = np.linspace(0.0, 0.5, grid) if head == "phase" else np.linspace(0, 1, grid)
         angle = 2 * np.pi * h if head == "phase" else np.pi * h
@@ -196,6 +201,24 @@ class PhaseONet(OperatorNet):
         squared_speed = torch.addmm(bias, V.to(torch.float64), matrix).clamp_(min=2e-12)
         return torch.rsqrt_(squared_speed) @ (2 * weights)
 
+    def rest_shape(self, V):
+        """The rest orbit's period T (B,) and computed shape Q, |p| (B, grid) on the grid
+        of the half-phase, float64 (``shape="quadrature"`` at rest): the period's own rule
+        (``nodes`` Gauss–Legendre nodes) read backwards (:mod:`._orbit_shape`)."""
+        if V.device not in self._quadrature:
+            self._quadrature[V.device] = tuple(a.to(V.device) for a in self._quad_cpu)
+        bias, matrix, _ = self._quadrature[V.device]
+        s, w, jac = (a.to(V.device) for a in self._gauss)
+        squared_speed = torch.addmm(bias, V.to(torch.float64), matrix).clamp_(min=2e-12)
+        f = jac * torch.rsqrt_(squared_speed)
+        T = 2 * (f @ w)
+        if V.device.type == "cpu" and not (torch.is_grad_enabled() and V.requires_grad):
+            Q, P = (torch.from_numpy(a) for a in invert_rows(
+                f.numpy(), s.numpy(), w.numpy(), T.numpy(), self.grid))
+        else:
+            Q, P = shape_table(f, s, w, T, self.grid)
+        return T, Q, P / T[:, None]
+
     def state_orbit(self, V):
         """The orbit through each row's state (``initial_state`` networks): a dict of
         float64 tensors a, b, E, T, u0 (B,) and U (B, nodes) (:func:`_orbit.orbit`)."""
@@ -211,14 +234,20 @@ class PhaseONet(OperatorNet):
             T, shape = o["T"], o["U"] / o["U"].amax(1, keepdim=True)
             x = torch.cat([shape, torch.log(T)[:, None]], dim=1).to(V.dtype)
         else:
-            T = self.period(V)
+            if self.shape == "quadrature":
+                T, *computed = self.rest_shape(V)
+            else:
+                T = self.period(V)
             x = torch.cat([(V0 - V) / 2, torch.log(T).to(V.dtype)[:, None]], dim=1)
         coeffs = self.branch(x)                                   # (B, k · basis)
         r = self.basis.shape[1]
         # Per output a plain 2-D product and 2-D gathers: contiguous operands are what
         # keeps this head cheap next to the MLP on a CPU.
-        shift = ([o["Q"].to(coeffs.dtype), o["P"].to(coeffs.dtype)]
-                 if self.shape == "quadrature" else [s[0] for s in self.out_shift])
+        if self.shape == "quadrature":
+            shift = [a.to(coeffs.dtype) for a in
+                     ((o["Q"], o["P"]) if self.initial_state else computed)]
+        else:
+            shift = [s[0] for s in self.out_shift]
         shapes = [torch.addmm(shift[k], coeffs[:, k * r:(k + 1) * r],
                               self.basis[k] * self.out_scale[k, 0])
                   for k in range(self.n_outputs)]                 # each (B, grid)

@@ -90,23 +90,55 @@ def test_compiled_rows_and_torch_formulas_agree_and_gradients_flow():
 
 
 def test_shape_table_inverts_a_known_phase():
-    # f ≡ 1 on s: the half-phase is s / 2 and s(h) = 2h, so Q = (1 − cos 2πh)/2
+    # f ≡ 1 on s: the half-phase is s / 2 and s(h) = 2h, so Q = (1 − cos 2πh)/2 and
+    # P = T (π/2) sin(2πh): the harmonic orbit at T = 2
     s, w = np.polynomial.legendre.leggauss(32)
     s, w = torch.tensor((s + 1) / 2), torch.tensor(w / 2)
     f = torch.ones(1, 32, dtype=torch.float64)
-    speed = torch.full((1, 32), 3.0, dtype=torch.float64)
-    T, L = torch.tensor([2.0], dtype=torch.float64), torch.tensor([0.5], dtype=torch.float64)
-    Q, P = shape_table(f, speed, s, w, T, L, 11)
-    Qh, _ = harmonic_shape(11)
+    Q, P = shape_table(f, s, w, torch.tensor([2.0], dtype=torch.float64), 11)
+    Qh, Ph = harmonic_shape(11)
     np.testing.assert_allclose(Q[0].numpy(), Qh.numpy(), atol=1e-14)
-    # |p| = 3 between the first and last node, falling linearly to 0 at s = 0 and 1
-    x = 2 * np.linspace(0, 0.5, 11)
-    expected = 3 * np.clip(np.minimum(x / s[0].item(), (1 - x) / s[0].item()), 0, 1)
-    np.testing.assert_allclose(P[0].numpy(), expected * 2.0 / 0.5, atol=1e-10)
+    np.testing.assert_allclose(P[0].numpy(), Ph.numpy(), atol=1e-12)
 
 
 def test_the_shape_option_is_named_where_it_cannot_apply():
     with pytest.raises(ValueError, match="shape must be 'learned' or 'quadrature'"):
         PhaseONet(initial_state=True, shape="exact")
-    with pytest.raises(ValueError, match="shape='quadrature' needs initial_state=True"):
-        PhaseONet(shape="quadrature")
+    with pytest.raises(ValueError, match="shape='quadrature' needs head='phase'"):
+        PhaseONet(shape="quadrature", head="time")
+
+
+def rest(nodes=64, grid=256):
+    torch.manual_seed(0)
+    net = PhaseONet(width=16, depth=1, basis=4, grid=grid, nodes=nodes, shape="quadrature")
+    return cast_network(net, torch.float64).eval()
+
+
+def test_at_rest_at_construction_it_is_the_exact_harmonic_orbit():
+    V = 2 - W**2 * X * (1 - X) / 2      # from rest at q = 0: q = (1 − cos Wt)/2
+    t = np.linspace(0, 5, 61)
+    with torch.no_grad():
+        y = rest(grid=2048)((torch.tensor(V[None]), torch.tensor(t)[:, None]))[0].numpy()
+    np.testing.assert_allclose(y[:, 0], (1 - np.cos(W * t)) / 2, atol=2e-7)
+    np.testing.assert_allclose(y[:, 1], W / 2 * np.sin(W * t), atol=2e-6)
+
+
+def test_at_rest_it_converges_to_an_independent_solve_and_both_paths_agree():
+    import nh_operators as nh
+
+    space = nh.BoundedPotentialSpace(seed=11)
+    V = np.asarray(space.eval_batch(space.random(3), nh.SENSORS[:, None]))
+    t = np.linspace(0, 2, 100)
+    errors = []
+    for nodes, grid in ((32, 256), (64, 256), (128, 1024)):
+        with torch.no_grad():
+            y = rest(nodes, grid)((torch.tensor(V), torch.tensor(t)[:, None])).numpy()
+        errors.append(max(0.5 * (np.mean((y[i, :, 0] - q) ** 2) + np.mean((y[i, :, 1] - p) ** 2))
+                          for i, (q, p) in enumerate(spline_trajectory(v, 0.0, 0.0, t)
+                                                     for v in V)))
+    assert errors[2] < 1e-8 and errors[2] < errors[1] < errors[0], errors
+    net, x = rest(), torch.tensor(V).requires_grad_(True)   # a gradient: torch formulas
+    y = net((x, torch.tensor(t)[:, None]))
+    with torch.no_grad():
+        compiled = net((torch.tensor(V), torch.tensor(t)[:, None]))
+    np.testing.assert_allclose(y.detach().numpy(), compiled.numpy(), atol=1e-12)
