@@ -65,6 +65,8 @@ ROWS = {
     "quadrature-nodes128": ({"shape": "quadrature", "nodes": 128}, "100k"),
     "quadrature-small": ({"shape": "quadrature", "width": 32, "depth": 1, "basis": 8},
                          "100k"),
+    "quadrature-nodes128-grid128": ({"shape": "quadrature", "nodes": 128, "grid": 128},
+                                    "100k"),
 }
 INFERENCE_ROWS = ("bfloat16", "torchscript", "compile", "threads2")
 FILES = {"100k": "{}-extended.h5", "10k": "{}-standard.h5"}

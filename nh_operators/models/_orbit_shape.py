@@ -2,31 +2,34 @@
 
 On the orbit q = a + L (1 − cos πs)/2 (L = b − a) the time from a is
 τ(s) = ∫_0^s f(σ) dσ with f = (dq/ds) / |p| smooth in s, and the half-phase is
-h(s) = τ(s) / T ∈ [0, 1/2]. The composite Gauss–Legendre rule that gives T already
-evaluates f at its nodes s_k; its partial sums Σ_{j ≤ k} f_j w_j, divided by T, are
-h at the right ends β_k = Σ_{j ≤ k} w_j of the nodes' weight intervals, up to a local
-error of the order of the interval squared that does not accumulate (every panel's sum is
-the rule's). That table (β_k, h_k), increasing in both, is read backwards: the shape
-Q(h) = (1 − cos π s(h))/2 on a uniform grid of h by linear interpolation of s(h), and
-P(h) = (T / L) |p| at s(h) with |p| = (dq/ds) / f = L (π/2) sin(πs) / f: 1/f, smooth
-and non-zero at the turning points, is linear in s between the nodes (constant beyond
-the first and last), so that |p| vanishes exactly at the turning points and the
-harmonic orbit (f constant) comes out exact. This is a classical quadrature solve of the orbit in the sensor
-spline; PhaseONet's ``shape="quadrature"`` learns a correction to it (from a state on
-the composite rule, at rest on the period's own Gauss–Legendre rule).
+h(s) = τ(s) / T ∈ [0, 1/2]. The Gauss–Legendre rule that gives T already evaluates f at
+its nodes s_k; its partial sums Σ_{j ≤ k} f_j w_j, divided by T, are h at the right ends
+β_k = Σ_{j ≤ k} w_j of the nodes' weight intervals, up to a local error of the order of
+the interval squared that does not accumulate (every panel's sum is the rule's). That
+table, increasing in h, is read backwards on a uniform grid of h: between two ends s is
+linear in h, Q = (1 − cos πs)/2, and P = (T / L) |p| with |p| = (dq/ds) / f =
+L (π/2) sin(πs) / f, where 1/f (smooth and non-zero at the turning points) is linear in
+s between the nodes (constant beyond the first and last). So |p| vanishes exactly at the turning points, and the harmonic
+orbit (f constant, s linear in h) comes out exact. What depends only on the rule (the
+ends, cos and sin there, where each end falls between the nodes) is computed once per
+rule (:func:`edge_tables`); the compiled rows take cos and sin of πs from the ends'
+values by the angle-addition formulas with a short series in the small angle, so a row
+costs a cumulative sum and one walk over the grid and the nodes. This is a classical quadrature solve of the orbit
+in the sensor spline; PhaseONet's ``shape="quadrature"`` learns a correction to it (from
+a state on the composite rule, at rest on the period's own Gauss–Legendre rule).
 
 :func:`shape_table` is the torch version (any device, differentiable in f and T);
-:func:`invert_row` the compiled one that :func:`._orbit._quadrature_compiled` calls
-per row, and :func:`invert_rows` for the rest scene.
+:func:`._orbit.invert_row` the compiled one (in the module of the compiled quadrature
+that calls it: numba's cache sees changes to a kernel's own file only).
 """
 
+import functools
 import math
 
-import numba
 import numpy as np
 import torch
 
-__all__ = ["harmonic_shape", "shape_table"]
+__all__ = ["edge_tables", "harmonic_shape", "shape_table"]
 
 
 def harmonic_shape(grid, dtype=torch.float64, device=None):
@@ -34,6 +37,24 @@ def harmonic_shape(grid, dtype=torch.float64, device=None):
     (1 − cos 2πh)/2 and π sin 2πh (Q's derivative in h)."""
     h = torch.linspace(0.0, 0.5, grid, dtype=dtype, device=device)
     return (1 - torch.cos(2 * math.pi * h)) / 2, math.pi * torch.sin(2 * math.pi * h)
+
+
+def edge_tables(s, w):
+    """A rule's ends β (K + 1,: 0, then the cumulative weights), cos(πβ), sin(πβ), and
+    1 / (s_k − s_{k−1}) (K,; entry 0 unused), float64 numpy.
+
+    Args:
+        s, w: (K,) the rule's nodes (increasing, in (0, 1)) and weights (summing to 1).
+    """
+    return _edge_tables(tuple(np.asarray(s, dtype=np.float64)),
+                        tuple(np.asarray(w, dtype=np.float64)))
+
+
+@functools.lru_cache(maxsize=16)
+def _edge_tables(s, w):
+    ends = np.concatenate([[0.0], np.cumsum(w)])
+    gaps = np.concatenate([[0.0], 1 / np.diff(s)])
+    return ends, np.cos(np.pi * ends), np.sin(np.pi * ends), gaps
 
 
 def shape_table(f, s, w, T, grid):
@@ -49,54 +70,17 @@ def shape_table(f, s, w, T, grid):
         Q, P, each (B, grid), in the dtype of f: q = a + L Q, |p| = (L / T) P.
     """
     B, K = f.shape
-    edges = torch.cat([s.new_zeros(1), torch.cumsum(w, 0)])               # (K + 1,)
+    ends = torch.as_tensor(edge_tables(s.cpu().numpy(), w.cpu().numpy())[0], device=f.device)
     phase = torch.cat([f.new_zeros(B, 1), torch.cumsum(f * w, 1) / T[:, None]], 1)
     h = torch.linspace(0.0, 0.5, grid, dtype=f.dtype, device=f.device).expand(B, -1)
     right = torch.searchsorted(phase.detach().contiguous(), h.contiguous()).clamp_(1, K)
     lo, hi = torch.gather(phase, 1, right - 1), torch.gather(phase, 1, right)
-    weight = ((h - lo) / (hi - lo).clamp(min=1e-300)).clamp(0, 1)
-    x = torch.lerp(edges[right - 1], edges[right], weight)                # s(h)
-    Q = (1 - torch.cos(math.pi * x)) / 2
+    x = ((h - lo) / (hi - lo).clamp(min=1e-300)).clamp(0, 1)
+    at = torch.lerp(ends[right - 1], ends[right], x)                      # s(h)
+    Q = (1 - torch.cos(math.pi * at)) / 2
     inverse = 1 / f
-    j = torch.searchsorted(s, x.detach().contiguous()).clamp_(1, K - 1)   # s[j-1] < x ≤ s[j]
-    weight = ((x - s[j - 1]) / (s[j] - s[j - 1])).clamp(0, 1)
-    g = torch.lerp(torch.gather(inverse, 1, j - 1), torch.gather(inverse, 1, j), weight)
-    P = T[:, None] * (math.pi / 2) * torch.sin(math.pi * x) * g
-    return Q, P
-
-
-@numba.njit(cache=True, nogil=True)
-def invert_row(f, s, w, T, Q, P):
-    """:func:`shape_table` for one row, into Q and P (grid,) (the same arithmetic)."""
-    K, grid = f.shape[0], Q.shape[0]
-    edges = np.empty(K + 1)
-    phase = np.empty(K + 1)
-    edges[0], phase[0], acc, total = 0.0, 0.0, 0.0, 0.0
-    for k in range(K):
-        acc += w[k]
-        total += f[k] * w[k]
-        edges[k + 1], phase[k + 1] = acc, total / T
-    right, node = 1, 1      # walk the table and the nodes once, h and s increasing
-    for g in range(grid):
-        h = 0.5 * g / (grid - 1)
-        while right < K and phase[right] < h:
-            right += 1
-        lo, hi = phase[right - 1], phase[right]
-        weight = min(max((h - lo) / max(hi - lo, 1e-300), 0.0), 1.0)
-        x = edges[right - 1] + weight * (edges[right] - edges[right - 1])
-        Q[g] = (1 - math.cos(math.pi * x)) / 2
-        while node < K - 1 and s[node] < x:   # s[node − 1] < x ≤ s[node], clamped
-            node += 1
-        weight = min(max((x - s[node - 1]) / (s[node] - s[node - 1]), 0.0), 1.0)
-        inverse = 1 / f[node - 1] + weight * (1 / f[node] - 1 / f[node - 1])
-        P[g] = T * (math.pi / 2) * math.sin(math.pi * x) * inverse
-
-
-@numba.njit(cache=True, nogil=True)
-def invert_rows(f, s, w, T, grid):
-    """:func:`invert_row` for every row: (Q, P), each (B, grid)."""
-    rows = f.shape[0]
-    Q, P = np.empty((rows, grid)), np.empty((rows, grid))
-    for r in range(rows):
-        invert_row(f[r], s, w, T[r], Q[r], P[r])
+    j = torch.searchsorted(s, at.detach().contiguous()).clamp_(1, K - 1)
+    y = ((at - s[j - 1]) / (s[j] - s[j - 1])).clamp(0, 1)
+    inverse = torch.lerp(torch.gather(inverse, 1, j - 1), torch.gather(inverse, 1, j), y)
+    P = T[:, None] * (math.pi / 2) * torch.sin(math.pi * at) * inverse
     return Q, P

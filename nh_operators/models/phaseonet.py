@@ -18,8 +18,8 @@ import numpy as np
 import torch
 
 from ._layers import OperatorNet
-from ._orbit import SensorSpline, composite_rule, orbit
-from ._orbit_shape import invert_rows, shape_table
+from ._orbit import SensorSpline, composite_rule, invert_rows, orbit
+from ._orbit_shape import edge_tables, shape_table
 
 __all__ = ["PhaseONet", "period_quadrature"]
 
@@ -214,7 +214,8 @@ class PhaseONet(OperatorNet):
         T = 2 * (f @ w)
         if V.device.type == "cpu" and not (torch.is_grad_enabled() and V.requires_grad):
             Q, P = (torch.from_numpy(a) for a in invert_rows(
-                f.numpy(), s.numpy(), w.numpy(), T.numpy(), self.grid))
+                f.numpy(), s.numpy(), w.numpy(), T.numpy(),
+                *edge_tables(s.numpy(), w.numpy()), self.grid))
         else:
             Q, P = shape_table(f, s, w, T, self.grid)
         return T, Q, P / T[:, None]
