@@ -77,5 +77,6 @@ def _neural_seconds(calibration, batched=False):
 
 
 def _horizon_key(t):
-    """The latest asked time, rounded up to 0.01: the horizon a cost is weighed at."""
-    return math.ceil(100 * float(np.max(t))) / 100
+    """The latest asked time, rounded up to 0.1: the horizon a cost is weighed at (a
+    coarse key keeps the ranking's cache warm: 0.01 cost 25 µs a call in misses)."""
+    return math.ceil(10 * float(np.max(t)) - 1e-9) / 10

@@ -42,11 +42,12 @@ def test_demo_prints_table_and_writes_figure(tmp_path, capsys):
     rows = {line.split()[0]: line.split()[1:] for line in text.splitlines() if line[:1].isalpha()}
     assert float(rows["rk4_sensors_4"][0]) < 1e-3 * float(rows["paper_rk4"][0])
     assert (tmp_path / "physical_potentials.png").stat().st_size > 10_000
-    # every shipped network has a row; on the SHO each is within 1e-1 and far from exact
+    # every shipped network has a row; on the SHO each is within 1e-1 and not exact; the
+    # state networks, which compute the orbit's shape by quadrature, within 1e-8
     import nh_operators as nh
 
     for name in nh.available_pretrained():
-        assert 1e-8 < float(rows[name][0]) < 1e-1
+        assert 0 < float(rows[name][0]) < (1e-8 if name.endswith("-states") else 1e-1)
     assert len(list(tmp_path.glob("double_well_*.png"))) == 1
 
 

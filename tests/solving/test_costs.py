@@ -39,8 +39,9 @@ def test_the_classical_cost_is_linear_in_the_horizon_through_the_two_timings():
 
 
 def test_the_horizon_key_rounds_the_latest_time_up():
-    assert _horizon_key(np.array([0.1, 0.731])) == 0.74
+    assert _horizon_key(np.array([0.1, 0.731])) == 0.8
     assert _horizon_key(np.array([[0.2], [2.0]])) == 2.0
+    assert _horizon_key(np.array([0.3])) == 0.3
 
 
 def test_a_network_dearer_than_a_short_classical_solve_is_not_offered_there(monkeypatch):

@@ -2,7 +2,9 @@
 paper distribution, each potential from its own state stratified by energy (seed 9092,
 which no training or calibration used), every answer that ``solve`` or ``solve_many``
 accepts meets tol against the exact reference, the network that reads a state answers
-some of them, and the same test fails when its calibration is cut 10×. As in
+some of them, and the same test fails when its calibration is cut 100× (the state
+networks' calibrated estimates are 460–1,700× their true error at the median since they
+compute the orbit's shape: cut 10×, no answer here goes over tol, measured). As in
 ``test_network_contract.py`` only the cost test is opened, with the shipped factors."""
 
 import numpy as np
@@ -55,7 +57,7 @@ def test_every_accepted_answer_from_a_state_meets_tol(fresh, open_costs):
 
 
 def test_a_state_calibration_far_too_small_is_caught(fresh, open_costs):
-    open_costs(factor_scale=0.1)
+    open_costs(factor_scale=0.01)
     rows = _answers(fresh, np.random.default_rng(SEED))
     true, tol, neural = rows[:, 0], rows[:, 1], rows[:, 2].astype(bool)
     assert np.any(true[neural] > tol[neural])
