@@ -18,7 +18,10 @@ set with states (``--data``, e.g. ``paper-states-test.h5``), at the 100 times of
 ``--model`` may be given more than once (a shipped name or a run directory; the worst
 rows are those of the first); ``--computed`` adds PhaseONet's computed shape with no
 learned correction (``shape="quadrature"`` at its construction, float32);
-``--validation`` scores the validation split of a training set instead of a whole file.
+``--validation`` scores the validation split of a training set instead of a whole file;
+``--project`` adds each network's output put back on its energy
+(:func:`~nh_operators.evaluation.project_energy`, energy and V from the sensor spline:
+what a user of the network has).
 
 Run it with::
 
@@ -33,6 +36,7 @@ import torch
 
 import nh_operators as nh
 from nh_operators.data import load_dataset
+from nh_operators.evaluation import project_energy
 from nh_operators.models import PhaseONet
 from nh_operators.training import load_model
 from nh_operators.solvers.periodic import orbit_periods
@@ -75,6 +79,8 @@ def main():
                     help="also PhaseONet's computed shape without a learned correction")
     ap.add_argument("--validation", action="store_true",
                     help="score the validation split of --data (a training set)")
+    ap.add_argument("--project", action="store_true",
+                    help="also each network's output put back on its energy")
     ap.add_argument("--worst", type=int, default=200)
     args = ap.parse_args()
     torch.set_num_threads(1)
@@ -92,7 +98,9 @@ def main():
         nets.append(("computed shape, no learned correction",
                      PhaseONet(initial_state=True, shape="quadrature").eval()))
     x = torch.tensor(np.c_[V, q0, p0], dtype=torch.float32)  # the networks as shipped
-    losses = []
+    losses, projected = [], []
+    src = row_source(V, "sensors")
+    energy_spline = 0.5 * p0**2 + src.values_at(q0[:, None])[:, 0]
     for _, net in nets:
         with torch.no_grad():
             y = torch.cat([net((x[i:i + 4096], torch.tensor(nh.TIMES[:, None],
@@ -100,6 +108,9 @@ def main():
                            for i in range(0, len(x), 4096)])
         y = y.numpy().astype(np.float64)
         losses.append(l_tot(y[..., 0], y[..., 1], truth))
+        if args.project:
+            projected.append(l_tot(*project_energy(y[..., 0], y[..., 1], src.values_at,
+                                                   energy_spline), truth))
     # RK4 runs on the rows whose state is bounded in the sensor spline too (a state just
     # below V0 in the true potential can sit above it in the spline)
     from scipy.interpolate import CubicSpline
@@ -118,6 +129,8 @@ def main():
     print("|---|---:|---:|---:|---:|---:|---:|")
     for (name, _), L in zip(nets, losses):
         summary(name, L, near)
+    for (name, _), L in zip(nets, projected):
+        summary(f"{name}, energy projected", L, near)
     rk4 = l_tot(q_s, p_s, truth)
     if ok.all():
         summary("RK4 on the sensors, 64 substeps", rk4, near)

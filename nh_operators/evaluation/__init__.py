@@ -9,6 +9,7 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "metrics": ["energy_error", "loss_per_sample", "summarize"],
     "flow_structure": ["area_defect", "flow_jacobian", "network_flow", "network_jacobian",
+                       "project_energy",
                        "reversibility_error", "symplectic_defect"],
     "baselines": ["CLASSICAL_BASELINES", "classical_physical_table", "physical_reference"],
     "methods": ["CLASSICAL_METHODS", "EVALUATE_BASELINES", "ClassicalMethod", "Method",

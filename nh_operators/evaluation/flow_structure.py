@@ -10,14 +10,15 @@ again, and the start comes back.
 The maps are given as ``flow(q0, p0) -> (q, p)`` (arrays (N,) in, (N, M) out), so
 classical methods and networks are measured alike; :func:`network_flow` makes one of a
 network that reads a starting state, and :func:`network_jacobian` differentiates such a
-network exactly, by autograd.
+network exactly, by autograd. :func:`project_energy` puts a prediction back on its
+energy.
 """
 
 import numpy as np
 import torch
 
 __all__ = ["area_defect", "flow_jacobian", "network_flow", "network_jacobian",
-           "reversibility_error", "symplectic_defect"]
+           "project_energy", "reversibility_error", "symplectic_defect"]
 
 _OMEGA = np.array([[0.0, 1.0], [-1.0, 0.0]])
 
@@ -146,3 +147,34 @@ def network_jacobian(net, V, q0, p0, t):
                 (grad,) = torch.autograd.grad(y[:, i, k].sum(), state, retain_graph=True)
                 J[:, i, k, :] = grad.double().cpu()
     return J.numpy()
+
+
+def project_energy(q, p, values_at, energy):
+    """Put predicted states back on their energy: keep q (clipped to [0, 1]) and the sign
+    of p, and set abs(p) = sqrt(2 (E − V(q))) (0 where V(q) > E).
+
+    A post-processing option for any network's output (the flow conserves
+    H = p²/2 + V(q)); what it does to L_tot is measured in
+    ``benchmarks/scenes/state_errors.py --project`` and ``rollout.py --project``: it
+    helps where q is right and p is not, and hurts where q is wrong (the right energy at
+    the wrong place is another orbit's momentum).
+
+    Args:
+        q, p: (N, M) predicted positions and momenta.
+        values_at: ``values_at(q) -> V`` of each row at (N, M) positions, e.g.
+            ``row_source(V, "sensors").values_at`` for sensor values.
+        energy: (N,) each row's energy p0²/2 + V(q0).
+
+    Returns:
+        (q, p), each (N, M) float64.
+
+    Example:
+        >>> V = lambda q: 2 - 8 * q * (1 - q)           # the harmonic well, E = 2 at rest
+        >>> q, p = project_energy(np.array([[0.5]]), np.array([[-1.0]]), V, np.array([2.0]))
+        >>> float(p[0, 0])                              # −sqrt(2 (2 − V(1/2))) = −2
+        -2.0
+    """
+    q = np.clip(np.asarray(q, dtype=np.float64), 0.0, 1.0)
+    p = np.asarray(p, dtype=np.float64)
+    gap = np.asarray(energy, dtype=np.float64).reshape(-1, 1) - values_at(q)
+    return q, np.where(p < 0, -1.0, 1.0) * np.sqrt(np.maximum(2 * gap, 0.0))

@@ -75,3 +75,24 @@ def test_autograd_jacobian_of_a_network_matches_finite_differences():
 def test_a_network_without_a_state_is_refused():
     with pytest.raises(ValueError, match="build it with initial_state=True"):
         network_jacobian(tiny("deeponet"), np.zeros((1, 100)), [0.5], [0.0], [1.0])
+
+
+def test_project_energy_restores_the_momentum_of_a_right_position_and_keeps_its_sign():
+    from nh_operators.evaluation import project_energy
+
+    W = 4.0
+    V = lambda q: 2 - W**2 * q * (1 - q) / 2                     # noqa: E731
+    t = np.linspace(0, 2, 50)
+    q0, p0 = 0.3, 0.5
+    c = q0 - 0.5
+    q = 0.5 + c * np.cos(W * t) + p0 / W * np.sin(W * t)
+    p = -c * W * np.sin(W * t) + p0 * np.cos(W * t)
+    E = np.array([0.5 * p0**2 + V(q0)])
+    noisy = p * (1 + 0.1 * np.sin(7 * t))                        # wrong size, right sign
+    qp, pp = project_energy(q[None], noisy[None], V, E)
+    np.testing.assert_array_equal(qp[0], q)
+    np.testing.assert_allclose(pp[0], p, atol=1e-12)
+    # a position outside the orbit has no momentum there; outside [0, 1] it is clipped
+    qp, pp = project_energy(np.array([[0.5, -0.2]]), np.array([[1.0, -3.0]]), V,
+                            np.array([V(0.5) - 0.1]))
+    assert qp[0].tolist() == [0.5, 0.0] and pp[0].tolist() == [0.0, -0.0]
