@@ -4,6 +4,7 @@
                                              [--rows base,width128] [--epochs 30]
     python benchmarks/cost/fast_operator.py report --dataset paper --data-dir DIR --out DIR
     python benchmarks/cost/fast_operator.py solve --dataset paper [--size 10000] [--seed 4242]
+                                             [--also RUN_DIR] [--head-to-head-only]
 
 ``train`` trains the asked rows (all by default) through ``nh.train`` (DeepXDE's loop)
 into ``OUT/<dataset>-<row>/``, one thread per process: run two processes with
@@ -67,6 +68,10 @@ ROWS = {
                          "100k"),
     "quadrature-nodes128-grid128": ({"shape": "quadrature", "nodes": 128, "grid": 128},
                                     "100k"),
+    "quadrature-tiny": ({"shape": "quadrature", "grid": 128, "width": 16, "depth": 1,
+                         "basis": 4}, "100k"),
+    "quadrature-tiny-nodes128": ({"shape": "quadrature", "nodes": 128, "grid": 128,
+                                  "width": 16, "depth": 1, "basis": 4}, "100k"),
 }
 INFERENCE_ROWS = ("bfloat16", "torchscript", "compile", "threads2")
 FILES = {"100k": "{}-extended.h5", "10k": "{}-standard.h5"}
@@ -231,10 +236,11 @@ def _variant(row, net):
     return forward, score_with(forward)
 
 
-def _head_to_head(name, V, q, p, repeats):
+def _head_to_head(name, V, q, p, repeats, also=()):
     """The goal's comparison: the shipped network (float32) against RK4 on the sensors
     at 1 and 2 substeps (numba), and at 16, the sensor spline's information floor, on
-    the same fresh potentials, timed in the same run."""
+    the same fresh potentials, timed in the same run; ``also``: run directories of other
+    networks timed beside them."""
     net = nh.pretrained(name).net.eval()
     V32 = torch.as_tensor(V, dtype=torch.float32)
     methods = classical_methods(["rk4_sensors_1", "rk4_sensors_2", "rk4_sensors_16"])
@@ -258,6 +264,12 @@ def _head_to_head(name, V, q, p, repeats):
     for label, loss, o, m in rows:
         print(f"| {label} | {loss.mean():.2e} | {np.median(loss):.2e} | {o:.0f} | {m:.2f} |")
     print(f"| {name} (float32) | {mean:.2e} | {median:.2e} | {one:.0f} | {many:.2f} |")
+    for run in also:
+        other = nh.load_model(run)[0].eval()
+        mean, median = _score(other, V, q, p)
+        with torch.no_grad():
+            one, many = _speed(lambda v, t: other((v, t)), V32, repeats)
+        print(f"| {run} (float32) | {mean:.2e} | {median:.2e} | {one:.0f} | {many:.2f} |")
 
 
 def solve(args):
@@ -271,7 +283,9 @@ def solve(args):
     q_spline, p_spline = nh.integrate_sensors(V, nh.TIMES, substeps=256,
                                               check_resolution=False)
     name = f"phaseonet-{args.dataset}"
-    _head_to_head(name, V[:1000], q[:1000], p[:1000], args.repeats)
+    _head_to_head(name, V[:1000], q[:1000], p[:1000], args.repeats, args.also)
+    if args.head_to_head_only:
+        return
     print(f"\n{args.size} fresh {args.dataset} potentials (seed {args.seed}) as sensor "
           f"values, {len(nh.TIMES)} times; CPU, one thread; shipped {name}")
     print("| tol | classical s | auto s | speed-up | network share (any network) | "
@@ -309,6 +323,10 @@ def main():
     ap.add_argument("--seed", type=int, help="training seed (default 0) or, for solve, "
                     "the fresh potentials' seed (default 4242)")
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--also", action="append", default=[],
+                    help="solve: a run directory timed beside the shipped network")
+    ap.add_argument("--head-to-head-only", action="store_true",
+                    help="solve: only the head-to-head table")
     args = ap.parse_args()
     args.rows = args.rows.split(",")
     unknown = sorted(set(args.rows) - set(ROWS))
