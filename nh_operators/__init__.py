@@ -33,7 +33,7 @@ __getattr__, __dir__, _names = _attach(__name__, {
     "solvers": ["METHODS", "ResolutionWarning", "integrate", "integrate_sensors", "paper_rk4",
                 "reference_solve", "solve_classical"],
     "solving": ["DEFAULT_TOL", "ManySolution", "Solution", "available_pretrained",
-                "pretrained", "solve", "solve_many"],
+                "preload", "pretrained", "solve", "solve_many"],
     "training": ["ExpHyperbolicLR", "HyperbolicLR", "TrainConfig", "TrainingDiverged",
                  "adjusted_infimum_lr", "load_model", "train"],
 })

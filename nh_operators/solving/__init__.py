@@ -18,4 +18,5 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "catalog": ["CALIBRATION", "DOMAIN", "WEIGHTS", "available_pretrained", "network_domain",
                 "reads_state", "resolve_pretrained"],
     "shipped": ["export_pretrained", "pretrained"],
+    "preload": ["preload"],
 })
