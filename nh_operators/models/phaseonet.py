@@ -202,9 +202,9 @@ class PhaseONet(OperatorNet):
         return torch.rsqrt_(squared_speed) @ (2 * weights)
 
     def rest_shape(self, V):
-        """The rest orbit's period T (B,) and computed shape Q, |p| (B, grid) on the grid
-        of the half-phase, float64 (``shape="quadrature"`` at rest): the period's own rule
-        (``nodes`` Gauss–Legendre nodes) read backwards (:mod:`._orbit_shape`)."""
+        """The rest orbit's period T (B,) and computed shape, Q and abs(p) (B, grid), on the
+        grid of the half-phase, float64 (``shape="quadrature"`` at rest): the period's own
+        rule (``nodes`` Gauss–Legendre nodes) read backwards (``_orbit_shape``)."""
         if V.device not in self._quadrature:
             self._quadrature[V.device] = tuple(a.to(V.device) for a in self._quad_cpu)
         bias, matrix, _ = self._quadrature[V.device]
