@@ -39,7 +39,7 @@ import numpy as np
 import torch
 
 import nh_operators as nh
-from nh_operators.evaluation import device_info, loss_per_sample
+from nh_operators.evaluation import device_info, loss_per_sample, project_energy
 from nh_operators.solvers.rows import row_source
 from nh_operators.training import load_model, write_atomic
 
@@ -132,8 +132,8 @@ def main():
         return 0.5 * p**2 + src.values_at(np.clip(q, 0.0, 1.0))
 
     def project(q, p):
-        v = src.values_at(q[:, None])[:, 0]
-        return q, np.where(p < 0, -1.0, 1.0) * np.sqrt(np.maximum(2 * (e0 - v), 0.0))
+        qp, pp = project_energy(q[:, None], p[:, None], src.values_at, e0)
+        return qp[:, 0], pp[:, 0]
 
     def record(name, q, p, seconds):
         loss = loss_per_sample(q, p, q_ref, p_ref)["L_tot"]

@@ -113,11 +113,7 @@ def main():
                                                    energy_spline), truth))
     # RK4 runs on the rows whose state is bounded in the sensor spline too (a state just
     # below V0 in the true potential can sit above it in the spline)
-    from scipy.interpolate import CubicSpline
-
-    energy = 0.5 * p0**2 + CubicSpline(nh.SENSORS, V, axis=1)(q0)[np.arange(len(V)),
-                                                                     np.arange(len(V))]
-    ok = energy <= 2.0
+    ok = energy_spline <= 2.0
     q_s, p_s = np.full((len(V), len(nh.TIMES)), np.nan), np.full((len(V), len(nh.TIMES)), np.nan)
     q_s[ok], p_s[ok] = nh.integrate_sensors(V[ok], nh.TIMES, substeps=64, q0=q0[ok],
                                             p0=p0[ok], check_resolution=False)
