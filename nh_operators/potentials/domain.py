@@ -11,7 +11,7 @@ from .._constants import SENSORS, V0
 from .._sensors import sensor_values
 
 __all__ = ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations", "in_domain",
-           "fit_domain"]
+           "fit_domain", "wall_forces"]
 
 
 class OutOfDomainWarning(UserWarning):
@@ -27,9 +27,16 @@ class OutOfDomainWarning(UserWarning):
 #: 2 - 4·4/9 = 2/9 on the curve, and the nearest sensor is within 1/198 in q, so within
 #: 80/198 in V: 0.626 (measured on standard.h5 + test.h5, 14,000 potentials: 0.177).
 #: ``max_curvature``: second differences of the sensors, empirical: 2,126 at most on
-#: those 14,000 (99.9th percentile 1,999), times 1.5.
+#: those 14,000 (99.9th percentile 1,999), times 1.5. ``min_wall_force``: the force at
+#: each wall, -V'(0) and V'(1) from the cubic through the four sensors there, must point
+#: inward and exceed it (:func:`wall_forces`). The curve leaves each wall along its
+#: first control segment, which may be nearly flat, so only 0 is guaranteed; empirical:
+#: 0.42 at least on 100,000 potentials of each generator, divided by 1.25 (the slack of
+#: :func:`fit_domain`). A wall that does not push inward is no wall: from rest there, a
+#: particle stays or leaves [0, 1], and no training trajectory did.
 GENERATOR_DOMAIN = {"V_range": (-V0, V0), "max_slope": 80.0,
-                    "min_V_at_most": 2.0 / 9.0 + 80.0 / 198.0, "max_curvature": 3200.0}
+                    "min_V_at_most": 2.0 / 9.0 + 80.0 / 198.0, "max_curvature": 3200.0,
+                    "min_wall_force": 0.42 / 1.25}
 
 
 def domain_violations(V, domain=None):
@@ -79,6 +86,12 @@ def domain_violations(V, domain=None):
          f"curves more sharply than {source} (|V''| ≤ {d['max_curvature']:g} "
          "at the sensors)", "max |Δ²V/Δq²|"),
     ]
+    if "min_wall_force" in d:  # domains fitted before the bound (older domain.json) lack it
+        bound = d["min_wall_force"]
+        checks.append((stats["wall_force"], lambda x: _weak_walls(x, bound), np.argmin,
+                       f"has a wall whose force does not point inward as firmly as in "
+                       f"{source} (-V'(0) and V'(1) > {bound:.3g}; from rest there a "
+                       "particle stays or leaves [0, 1])", "weakest wall force"))
     messages = []
     for values, bad, pick, text, what in checks:
         hits = np.flatnonzero(bad(values))
@@ -93,11 +106,40 @@ def domain_violations(V, domain=None):
 
 
 def _row_stats(rows):
-    """Per row of sensor values (N, 100): min, max, max |ΔV/Δq|, max |Δ²V/Δq²|."""
+    """Per row of sensor values (N, 100): min, max, max |ΔV/Δq|, max |Δ²V/Δq²|, and the
+    weaker of the two wall forces (:func:`wall_forces`)."""
     width = SENSORS[1] - SENSORS[0]
     return {"min": rows.min(axis=1), "max": rows.max(axis=1),
             "slope": np.abs(np.diff(rows, axis=1)).max(axis=1) / width,
-            "curvature": np.abs(np.diff(rows, 2, axis=1)).max(axis=1) / width**2}
+            "curvature": np.abs(np.diff(rows, 2, axis=1)).max(axis=1) / width**2,
+            "wall_force": wall_forces(rows).min(axis=1)}
+
+
+def _weak_walls(force, bound):
+    return (force <= 0.0) | (force < bound)
+
+
+def wall_forces(V):
+    """The inward force at each wall, -V'(0) and V'(1), from the cubic through the four
+    sensors next to it (third order in the sensor spacing).
+
+    Args:
+        V: sensor values, shape (N, 100) (or (100,)).
+
+    Returns:
+        (N, 2) (or (2,)): positive where the force pushes a particle back into [0, 1].
+
+    Example:
+        >>> np.round(wall_forces(8 * (SENSORS - 0.5) ** 2), 6).tolist()  # V'(0) = -8
+        [8.0, 8.0]
+    """
+    V = np.asarray(V, dtype=np.float64)
+    rows = np.atleast_2d(V)
+    width = SENSORS[1] - SENSORS[0]
+    # the slope away from a wall at its sensor, into [0, 1]: V'(0), and -V'(1) at q = 1
+    weights = np.array([-11.0, 18.0, -9.0, 2.0]) / (6.0 * width)
+    out = -np.stack([rows[:, :4] @ weights, rows[:, :-5:-1] @ weights], axis=1)
+    return out if V.ndim == 2 else out[0]
 
 
 def in_domain(V, domain=None):
@@ -122,6 +164,8 @@ def in_domain(V, domain=None):
     ok = ((stats["min"] >= lo - 1e-9) & (stats["max"] <= hi + 1e-9)
           & (stats["min"] <= d["min_V_at_most"]) & (stats["slope"] <= d["max_slope"])
           & (stats["curvature"] <= d["max_curvature"]))
+    if "min_wall_force" in d:
+        ok &= ~_weak_walls(stats["wall_force"], d["min_wall_force"])
     return ok if V.ndim == 2 else ok[0]
 
 
@@ -130,8 +174,9 @@ def fit_domain(V, *, slack=0.25, source="its training data"):
 
     Each bound is the training set's extreme widened by ``slack``: the V range by
     ``slack`` × 0.1 of its width on each side, the slope and curvature bounds by a
-    factor 1 + ``slack``, and ``min_V_at_most`` (the highest minimum of a row) by
-    ``slack`` × its distance to V0, capped at V0. A network trained on these rows has
+    factor 1 + ``slack``, ``min_V_at_most`` (the highest minimum of a row) by
+    ``slack`` × its distance to V0, capped at V0, and ``min_wall_force`` (the weakest
+    inward wall force, :func:`wall_forces`, never below 0) divided by 1 + ``slack``. A network trained on these rows has
     seen nothing beyond them.
 
     Args:
@@ -164,4 +209,5 @@ def fit_domain(V, *, slack=0.25, source="its training data"):
             "max_slope": (1 + slack) * float(stats["slope"].max()),
             "min_V_at_most": min(V0, highest_min + slack * max(V0 - highest_min, 0.0)),
             "max_curvature": (1 + slack) * float(stats["curvature"].max()),
+            "min_wall_force": max(float(stats["wall_force"].min()), 0.0) / (1 + slack),
             "source": source, "rows": int(len(V))}

@@ -24,7 +24,7 @@ import torch
 from ..training import CHECKPOINT, CONFIG, HISTORY, load_checkpoint, write_atomic
 from .catalog import DOMAIN, WEIGHTS, network_domain, resolve_pretrained
 
-__all__ = ["pretrained", "export_pretrained"]
+__all__ = ["pretrained", "export_pretrained", "refit_domain"]
 
 METRICS = "metrics.json"
 _SLIM = ("format", "config", "model", "epoch", "data_checksum", "version")
@@ -113,6 +113,38 @@ def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=(), 
         domain = training_domain(data, state)
         write_atomic(out / DOMAIN, (json.dumps(domain, indent=2) + "\n").encode())
     return out
+
+
+def refit_domain(name, data):
+    """Fit ``domain.json`` of shipped model ``name`` again from the dataset it trained on
+    (its training rows as the run split them), as :func:`export_pretrained` does: for a
+    domain fitted before a bound was added.
+
+    ``data`` must be that dataset (checksum), or one with the same sensor values and
+    other labels (a dataset generated again after the labels' solver changed): then
+    every bound already in ``domain.json`` must come out the same (to 1e-12, relative).
+
+    Returns:
+        the domain written.
+
+    Raises:
+        ValueError: if ``data`` is neither.
+    """
+    name = resolve_pretrained(name)
+    state = load_checkpoint(WEIGHTS / name)
+    try:
+        domain = training_domain(data, state)
+    except ValueError:
+        domain = training_domain(data, {**state, "data_checksum": None})
+        old = json.loads((WEIGHTS / name / DOMAIN).read_text())
+        changed = [k for k in old if k != "source" and not np.allclose(
+            old[k], domain.get(k, np.nan), rtol=1e-12, atol=0.0)]
+        if changed:
+            raise ValueError(f"{data} is not the dataset {name} trained on: its training "
+                             f"rows give other {', '.join(changed)}") from None
+    write_atomic(WEIGHTS / name / DOMAIN, (json.dumps(domain, indent=2) + "\n").encode())
+    network_domain.cache_clear()
+    return domain
 
 
 def training_domain(data, state):

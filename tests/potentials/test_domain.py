@@ -7,7 +7,13 @@ from solver_helpers import generator_sensor_values
 
 import nh_operators as nh
 from nh_operators.evaluation import extreme_potentials
-from nh_operators.potentials import GENERATOR_DOMAIN, domain_violations, fit_domain, in_domain
+from nh_operators.potentials import (
+    GENERATOR_DOMAIN,
+    domain_violations,
+    fit_domain,
+    in_domain,
+    wall_forces,
+)
 
 SENSOR_VALUES = {name: pot.V(nh.SENSORS) for name, pot in extreme_potentials().items()}
 
@@ -28,8 +34,12 @@ def test_extreme_cases_are_reported():
         reasons["steep_wall"][0])
     assert reasons["deep_well"][0].startswith("V has values below -2")
     assert "min V = -99.9" in reasons["deep_well"][0]
-    assert reasons["near_flat"] == [f"V never dips below {GENERATOR_DOMAIN['min_V_at_most']:.3g} "
-                                    "(every potential of the generator does: too flat): min V = 1.99"]
+    assert reasons["near_flat"] == [
+        f"V never dips below {GENERATOR_DOMAIN['min_V_at_most']:.3g} (every potential of "
+        "the generator does: too flat): min V = 1.99",
+        "V has a wall whose force does not point inward as firmly as in the generator "
+        "(-V'(0) and V'(1) > 0.336; from rest there a particle stays or leaves [0, 1]): "
+        "weakest wall force = 0.04"]
     batch = np.stack([SENSOR_VALUES["mff"], SENSOR_VALUES["deep_well"], SENSOR_VALUES["mff"]])
     (message,) = [m for m in domain_violations(batch) if "below -2" in m]
     assert message.startswith("V[1] (1 of 3 rows) has values below -2") and "in row 1" in message
@@ -62,9 +72,29 @@ def test_a_fitted_domain_holds_its_rows_and_widens_each_bound_by_the_slack():
     flat = 2 - 1 * q * (1 - q)  # min V 1.75: flatter than any training row, beyond the slack
     steep = 2 - 12.5 * q * (1 - q)  # slope 12.4 > 1.5 × 7.9 and curvature 25 > 24
     assert not in_domain(np.stack([flat, steep]), d).any()
-    (message,) = domain_violations(flat, d)
-    assert "every potential of two parabolas does: too flat" in message
+    too_flat, weak_walls = domain_violations(flat, d)
+    assert "every potential of two parabolas does: too flat" in too_flat
+    # the weakest wall of the rows pushes with |V'(0)| = 4 (the cubic through four
+    # sensors differentiates a parabola exactly); the flat one's walls push with 1
+    assert d["min_wall_force"] == pytest.approx(4 / 1.5, rel=1e-9)
+    assert "weakest wall force = 1" in weak_walls
     assert fit_domain(rows, slack=0)["max_slope"] == pytest.approx(steepest)
+
+
+def test_a_wall_that_does_not_push_inward_is_outside_every_domain():
+    """V = 2 - 48 q² (1 - q)² has V'(0) = V'(1) = 0: from rest at q = 0 the particle
+    stays (or, on a spline whose slope there is slightly outward, leaves [0, 1]): no
+    training trajectory did either, and the error estimate, first order, misses it."""
+    q = nh.SENSORS
+    hilltop = 2 - 48 * q**2 * (1 - q) ** 2
+    np.testing.assert_allclose(wall_forces(hilltop), [0.0, 0.0], atol=2e-3)
+    np.testing.assert_allclose(wall_forces(2 - 3 * q * (1 - q) * (1 + q)), [3.0, 6.0])
+    assert not in_domain(hilltop) and in_domain(8 * (q - 0.5) ** 2)
+    (message,) = domain_violations(hilltop)
+    assert message.startswith("V has a wall whose force does not point inward")
+    # an older domain.json, without the bound, does not check it
+    older = {k: v for k, v in GENERATOR_DOMAIN.items() if k != "min_wall_force"}
+    assert in_domain(hilltop, older) and domain_violations(hilltop, older) == []
 
 
 def test_fit_domain_rejects_bad_rows_and_slack():
