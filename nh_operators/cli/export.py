@@ -19,7 +19,8 @@ def _calibrate(args):
     other = load_dataset(args.other).potentials() if args.other else None
     for model in args.model:
         cal = calibrate_pretrained(model, args.data, other=other,
-                                   timings_only=args.timings_only)
+                                   timings_only=args.timings_only,
+                                   keep_timings=args.keep_timings)
         fams = "; ".join(
             f"{fam} {f['admitted']}/{f['drawn']}"
             + (f", median {f['ratio_median']:.2g}, per bin " if f["admitted"] else "")
@@ -27,6 +28,9 @@ def _calibrate(args):
                         for c in f["bins"] if f["admitted"])
             for fam, f in cal["families"].items())
         bins = ", ".join(f"{f:.3g}" for f in cal["factors"])
+        if "factors_sensors" in cal:
+            bins += " (sensor values: " + ", ".join(
+                f"{f:.3g}" for f in cal["factors_sensors"]) + ")"
         print(f"{model}: factors {bins} for raw estimates split at "
               f"{', '.join(f'{x:g}' for x in cal['limits'])} (the largest bounds on the "
               f"{100 * cal['quantile']:g} % quantile of true L_tot / raw estimate, "
@@ -59,6 +63,9 @@ def register(sub):
                     "(e.g. generate --size 2000 --seed 2718)")
     ca.add_argument("--other", type=existing_file, help=".h5 of the other generator's "
                     "potentials (those inside a model's domain join its calibration)")
-    ca.add_argument("--timings-only", action="store_true", help="keep the factor; measure "
-                    "the network's and the classical solve's times again (quiet machine)")
+    when = ca.add_mutually_exclusive_group()
+    when.add_argument("--timings-only", action="store_true", help="keep the factor; measure "
+                      "the network's and the classical solve's times again (quiet machine)")
+    when.add_argument("--keep-timings", action="store_true", help="calibrate the factors "
+                      "again and keep the stored times (measured on a quiet machine)")
     ca.set_defaults(run=_calibrate)

@@ -39,8 +39,8 @@ from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import (CALIBRATION, WEIGHTS, available_pretrained, network_domain, reads_state,
                       resolve_pretrained)
 from .costs import _classical_seconds, _horizon_key, _input_kind, _neural_seconds
-from .estimate import (acceptance_rate, calibrated, cautious_acceptance_rate, estimate_at,
-                       sensor_force)
+from .acceptance import acceptance_rate, calibrated, cautious_acceptance_rate
+from .estimate import estimate_at, sensor_force
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
 
@@ -128,7 +128,8 @@ def neural_solve(name, pot, information, t, q0=0.0, p0=0.0):
     _model(name)  # loads torch first, so that the block below limits its threads too
     with single_threaded():
         q, p, raw = neural_raw(name, pot, information, t, q0, p0)
-        return q, p, float(calibrated(raw, _model(name).calibration))
+        kind = "sensors" if information == "sensors" else "exact"
+        return q, p, float(calibrated(raw, _model(name).calibration, kind))
 
 
 def network_input(name, V, q0=0.0, p0=0.0):
@@ -180,7 +181,9 @@ def _ranked(tol, kind, calibrations, batched=False, states=False, horizon=None):
             continue
         # one call counts on the share it would get from either generator; a batch
         # learns the share on its own rows from a pilot (solve_many)
-        share = acceptance_rate(cal, tol) if batched else cautious_acceptance_rate(cal, tol)
+        exact = "sensors" if kind == "sensors" else "exact"
+        share = (acceptance_rate(cal, tol, kind=exact) if batched
+                 else cautious_acceptance_rate(cal, tol, exact))
         t_cls = _classical_seconds(cal, tol, kind, batched, horizon)
         expected = _neural_seconds(cal, batched) + (1.0 - share) * t_cls
         if expected >= SAVING * t_cls:

@@ -21,7 +21,8 @@ from ..training import write_atomic
 from .auto_solve import _model, neural_raw, neural_solve
 from .catalog import CALIBRATION
 from .costs import SHORT_HORIZON
-from .estimate import calibrated, sensor_force
+from .acceptance import SENSOR_FAMILIES, bin_factors, calibrated
+from .estimate import sensor_force
 
 __all__ = ["calibrate_pretrained", "calibration_families", "upper_quantile", "CLASSICAL_TOLS",
            "QUANTILE", "CONFIDENCE", "LIMITS"]
@@ -93,7 +94,8 @@ def _states(values, n, rng):
 def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
     """true L_tot and raw estimate of model ``name`` on the rows of a batched B-spline
     ``pots`` inside its domain, each group of rows at one random set of asked times;
-    ``sensors``: the input is the sensor values (force and truth: their spline);
+    ``sensors``: the input is the sensor values (force and truth: their spline; ``pots``
+    may then be the sensor values themselves, (N, 100));
     ``states``: the rows' starting states (q0, p0), for a network that reads one."""
     from ..models import predict
     from ..potentials import in_domain
@@ -104,7 +106,7 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
 
     from .auto_solve import network_input
 
-    V = pots.V(SENSORS)
+    V = pots if isinstance(pots, np.ndarray) else pots.V(SENSORS)
     keep = np.flatnonzero(in_domain(V, network_domain(name)))
     net = _model(name).net
     q0s, p0s = (np.zeros(len(V)), np.zeros(len(V))) if states is None else states
@@ -177,13 +179,17 @@ def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
     ``sensors`` (the first ``n_sensors`` as sensor values: force and truth from their
     spline), ``other distribution`` (``other``, a labelled-free batched B-spline from
     the other generator, if given) and ``out of distribution``
-    (:func:`~nh_operators.potentials.ood_potentials`): each only where the network's
+    (:func:`~nh_operators.potentials.ood_potentials`), and the last two again as sensor
+    values (:data:`~nh_operators.solving.acceptance.SENSOR_FAMILIES`; their asked times
+    from a stream of their own, so the other families are those of a calibration made
+    before them): each only where the network's
     domain admits it — what ``auto`` would hand the network — and each at random asked
     times (:func:`_asked_times`), truth at exactly those times. A network that reads a
     starting state (:func:`~nh_operators.solving.reads_state`) is calibrated from the
     dataset's own states (it must have them) and, for the other families, from states
     stratified by energy (:func:`~nh_operators.solvers.energy_states`).
     """
+    from ..potentials import ood_potentials
     from ..solvers.rows import row_source
     from .catalog import reads_state
 
@@ -204,20 +210,40 @@ def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
         out["other distribution"] = _batch_ratios(name, other, False, rng, states=drawn)
     if n_ood:
         out["out of distribution"] = _ood_ratios(name, n_ood, ood_seed, rng, states)
+    own_rng = np.random.default_rng([seed, 1])
+    if other is not None:
+        out[SENSOR_FAMILIES["other distribution"]] = _sensor_family(
+            name, other.V(SENSORS), own_rng, states)
+    if n_ood:
+        V = np.stack([pot.V(SENSORS) for pot in ood_potentials(n_ood, ood_seed)])
+        out[SENSOR_FAMILIES["out of distribution"]] = _sensor_family(name, V, own_rng, states)
     return out
 
 
+def _sensor_family(name, V, rng, states):
+    """:func:`_batch_ratios` on sensor values V (N, 100); ``states``: from states
+    stratified by energy on their splines."""
+    from ..solvers.rows import row_source
+
+    drawn = _states(row_source(V, "sensors").values_at, len(V), rng) if states else None
+    return _batch_ratios(name, V, True, rng, states=drawn)
+
+
 def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
-                         ood_seed=2719, quantile=QUANTILE, timings_only=False, write=True):
+                         ood_seed=2719, quantile=QUANTILE, timings_only=False,
+                         keep_timings=False, write=True):
     """Calibrate shipped model ``name`` and write its calibration file.
 
     The factor makes ``factor · raw`` at the asked times
     (:func:`~nh_operators.solving.estimate_at`) an upper bound of the true L_tot per
-    call: it is the largest, over the families of :func:`calibration_families`, of a
-    bootstrap upper bound (confidence :data:`CONFIDENCE`) on the ``quantile`` of
-    true / raw. The raw estimate is first order in the error, so samples are bounded
-    per bin of raw (split at :data:`LIMITS`), each bin with its factor, never smaller
-    than a lower bin's (:func:`~nh_operators.solving.calibrated`).
+    call: it is the largest, over the families of :func:`calibration_families` whose
+    inputs are exact potentials, of a bootstrap upper bound (confidence
+    :data:`CONFIDENCE`) on the ``quantile`` of true / raw. The raw estimate is first
+    order in the error, so samples are bounded per bin of raw (split at :data:`LIMITS`),
+    each bin with its factor, never smaller than a lower bin's
+    (:func:`~nh_operators.solving.calibrated`). Sensor values, whose truth is their
+    spline's trajectory, get the same bound over the families of sensor values
+    (:mod:`~nh_operators.solving.acceptance`).
 
     Args:
         name: a shipped model (:func:`~nh_operators.available_pretrained`).
@@ -231,20 +257,23 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
         quantile: the quantile of true / raw bounded.
         timings_only: keep the stored factor; measure the network's and the classical
             solve's times again (on a quiet machine: ``auto`` compares them).
+        keep_timings: calibrate the factors again and keep the stored times (measured
+            on a quiet machine), e.g. on a busy one.
         write: write ``weights/NAME/calibration.json`` (atomically).
 
     Returns:
-        the calibration dict: ``limits``, ``factors`` (one per bin), ``factor`` (the
-        first bin's), ``quantile``, ``confidence``, ``families`` (per family: drawn,
-        admitted, median and largest true / raw, and per bin the count and the bounded
-        quantile),
+        the calibration dict: ``limits``, ``factors`` (one per bin, over the families
+        of exact potentials: :func:`bin_factors`), ``factor`` (the first bin's),
+        ``factors_sensors`` (the same over the families of sensor values), ``quantile``,
+        ``confidence``, ``families`` (per family: drawn, admitted, median and largest
+        true / raw, and per bin the count and the bounded quantile),
         ``estimate_over_true_median`` (in distribution),
         ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
         the in-distribution family, at ``probabilities``), ``neural_seconds``,
         ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula; each also
-        ``_short``, up to :data:`~.costs.SHORT_HORIZON`), their per-row costs inside ``solve_many`` (``neural_seconds_batched``,
-        ``classical_seconds_batched``, ``classical_seconds_sensors_batched``) and
-        ``device``.
+        ``_short``, up to :data:`~.costs.SHORT_HORIZON`), their per-row costs inside
+        ``solve_many`` (``neural_seconds_batched``, ``classical_seconds_batched``,
+        ``classical_seconds_sensors_batched``) and ``device``.
     """
     from ..data import load_dataset
     from .catalog import reads_state, resolve_pretrained
@@ -261,7 +290,6 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
               dataset.checksum, "ood_seed": ood_seed, "limits": list(LIMITS),
               "families": {}, "initial_state": reads_state(name)}
-    bounds = [[] for _ in range(len(LIMITS) + 1)]
     for fam, (true, raw, drawn) in fams.items():
         ratio = true / np.maximum(raw, 1e-300)
         entry = {"drawn": drawn, "admitted": int(true.size), "bins": []}
@@ -273,29 +301,33 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
             cell = {"n": int(pick.sum())}
             if pick.any():
                 cell["bound"] = upper_quantile(ratio[pick], quantile)
-                bounds[k].append(cell["bound"])
             entry["bins"].append(cell)
         result["families"][fam] = entry
-    # each bin's factor is the largest family bound in it (a bin no sample reached takes
-    # the largest of all), never below a lower bin's: the estimate grows with raw
-    if not any(bounds):
+    families = result["families"]
+    sensor = set(SENSOR_FAMILIES.values())
+    factors = bin_factors(f for fam, f in families.items() if fam not in sensor)
+    sensor_factors = bin_factors(f for fam, f in families.items() if fam in sensor)
+    if factors is None or sensor_factors is None:
         raise ValueError(f"{name}: no calibration input lies inside the network's domain")
-    top = max(b for bs in bounds for b in bs)
-    result["factors"] = np.maximum.accumulate([max(bs) if bs else top for bs in bounds]).tolist()
-    result["factor"] = result["factors"][0]
+    result.update(factors=factors, factor=factors[0], factors_sensors=sensor_factors)
     true, raw, _ = fams["in distribution"]
     estimate = calibrated(raw, result)
     probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
     for fam, (f_true, f_raw, _) in fams.items():  # how often each family is accepted
         if f_true.size:
-            result["families"][fam]["estimate_quantiles"] = [
-                float(v) for v in np.quantile(calibrated(f_raw, result), probabilities)]
+            kind = "sensors" if fam in SENSOR_FAMILIES.values() else "exact"
+            families[fam]["estimate_quantiles"] = [
+                float(v) for v in np.quantile(calibrated(f_raw, result, kind), probabilities)]
     result.update(n=int(true.size), probabilities=probabilities,
                   estimate_quantiles=[float(v) for v in np.quantile(estimate, probabilities)],
                   L_quantiles=[float(v) for v in np.quantile(true, probabilities)],
                   estimate_over_true_median=float(np.median(estimate / np.maximum(true,
                                                                                  1e-300))))
-    _timings(result, name, dataset, n_timing)
+    if keep_timings:
+        result.update({key: value for key, value in model.calibration.items()
+                       if key.startswith(("neural_seconds", "classical_")) or key == "device"})
+    else:
+        _timings(result, name, dataset, n_timing)
     return _written(result, name, model, write)
 
 

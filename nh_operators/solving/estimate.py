@@ -33,7 +33,7 @@ import numpy as np
 from .._constants import SENSORS, TIMES, V0
 
 __all__ = ["spline_rows", "residuals", "raw_estimate", "estimate_at", "propagated_error",
-           "calibrate", "calibrated", "CALIBRATION_QUANTILE"]
+           "calibrate", "CALIBRATION_QUANTILE"]
 
 #: Quantile of L_tot / raw estimate that becomes the calibration factor.
 CALIBRATION_QUANTILE = 0.995
@@ -343,46 +343,3 @@ def calibrate(method, dataset, *, quantile=CALIBRATION_QUANTILE, batch=1000):
             "dataset_checksum": dataset.checksum, "probabilities": probabilities,
             "estimate_quantiles": [float(v) for v in np.quantile(factor * raw, probabilities)],
             "L_quantiles": [float(v) for v in np.quantile(loss, probabilities)]}
-
-
-def calibrated(raw, calibration):
-    """The calibrated estimate of raw estimates ``raw`` under a model's ``calibration``.
-
-    ``factors[k] · raw`` for raw in bin k, the bins split at ``limits`` (the raw estimate
-    is first order in the error: as the error grows, its ratio to the truth spreads
-    more). A calibration with one ``factor`` applies it everywhere; ``None`` leaves
-    ``raw`` as it is.
-
-    Example:
-        >>> cal = {"factor": 2.0, "factors": [2.0, 3.0, 8.0], "limits": [1e-3, 1e-2]}
-        >>> calibrated(np.array([1e-4, 1e-3, 5e-3, 0.1]), cal).tolist()
-        [0.0002, 0.002, 0.015, 0.8]
-    """
-    raw = np.asarray(raw, dtype=np.float64)
-    if not calibration:
-        return raw
-    factors = np.asarray(calibration.get("factors", [calibration["factor"]]))
-    limits = calibration.get("limits", [])
-    return factors[np.searchsorted(limits, raw, side="left")] * raw
-
-
-def acceptance_rate(calibration, tol, family=None):
-    """Fraction of the calibration set (its in-distribution family, or ``family``)
-    whose calibrated estimate is ≤ tol (interpolated between the stored quantiles in log
-    scale)."""
-    quantiles = (calibration["estimate_quantiles"] if family is None else
-                 calibration["families"][family]["estimate_quantiles"])
-    est = np.log(np.maximum(quantiles, 1e-300))
-    return float(np.interp(np.log(tol), est, calibration["probabilities"], left=0.0,
-                           right=1.0))
-
-
-def cautious_acceptance_rate(calibration, tol):
-    """The smaller of :func:`acceptance_rate` on the network's own distribution and on
-    the other generator's potentials its domain admits (where calibrated): what a single
-    call, which cannot tell which generator its input came from, may count on."""
-    shares = [acceptance_rate(calibration, tol)]
-    other = calibration.get("families", {}).get("other distribution", {})
-    if "estimate_quantiles" in other:
-        shares.append(acceptance_rate(calibration, tol, "other distribution"))
-    return min(shares)

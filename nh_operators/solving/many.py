@@ -31,7 +31,8 @@ from ..solvers.states import check_states, state_arrays
 from .auto_solve import DEFAULT_TOL, _calibration, _checked, _model, _ranked, _solve, network_input
 from .catalog import network_domain, reads_state
 from .costs import _classical_seconds, _horizon_key, _neural_seconds
-from .estimate import calibrated, estimate_at, sensor_force
+from .acceptance import calibrated
+from .estimate import estimate_at, sensor_force
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 
@@ -142,7 +143,8 @@ def _network_rows(name, V, src, t, rows, tol, q0s=0.0, p0s=0.0):
 
         force = (values, slopes)
     qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows], q0=q0s, p0=p0s)
-    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration), np.inf)
+    kind = "sensors" if src is None else "exact"
+    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind), np.inf)
     return qa, pa, estimate
 
 

@@ -20,7 +20,9 @@ def open_costs(monkeypatch):
             cal = dict(model.calibration)
             cal["neural_seconds"] = cal["neural_seconds_batched"] = 0.0
             cal["factor"] *= factor_scale
-            cal["factors"] = [factor_scale * f for f in cal["factors"]]
+            for key in ("factors", "factors_sensors"):
+                if key in cal:
+                    cal[key] = [factor_scale * f for f in cal[key]]
             cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]
             cal["families"] = {fam: dict(f, estimate_quantiles=[factor_scale * v for v in
                                                                  f["estimate_quantiles"]])

@@ -9,11 +9,8 @@ from nh_operators.data import generate_dataset
 from nh_operators.evaluation import loss_per_sample
 from nh_operators.solvers import sensor_spline_params
 from nh_operators.solving import calibrate, raw_estimate, residuals, spline_rows
-from nh_operators.solving.estimate import (
-    _integration_matrix,
-    acceptance_rate,
-    sensor_force,
-)
+from nh_operators.solving.acceptance import acceptance_rate
+from nh_operators.solving.estimate import _integration_matrix, sensor_force
 
 SHO = nh.PHYSICAL_POTENTIALS["sho"]
 

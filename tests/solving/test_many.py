@@ -90,7 +90,7 @@ def test_solve_many_weighs_per_row_batched_costs_not_one_calls(monkeypatch):
     auto_solve._ranked.cache_clear()
     ids = tuple(id(auto_solve._calibration(m)) for m in auto_solve._networks())
     tol = 1e-2
-    share = auto_solve.acceptance_rate(cal, tol)
+    share = auto_solve.acceptance_rate(cal, tol, kind="sensors")  # the input's kind
     assert share > 0.5
     single, _ = auto_solve._ranked(tol, "sensors", ids)
     batched, _ = auto_solve._ranked(tol, "sensors", ids, True)
@@ -123,6 +123,7 @@ def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
         cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
         if name == "phaseonet-paper":
             cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
+            cal.pop("factors_sensors", None)  # sensor values too get the 1e12
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
     ds = nh.generate_dataset(30, seed=77, progress=False)
@@ -156,6 +157,7 @@ def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
             1e-9 if name == "phaseonet-paper" else 1e3)
         if name == "phaseonet-paper":
             cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
+            cal.pop("factors_sensors", None)  # sensor values too get the 1e12
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
     V = np.asarray(nh.generate_dataset(30, seed=78, progress=False, normalization="batch",

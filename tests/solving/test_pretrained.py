@@ -7,8 +7,10 @@ import nh_operators as nh
 from nh_operators.cli import main
 from nh_operators.potentials import in_domain
 from nh_operators.solving import (
+    SENSOR_FAMILIES,
     WEIGHTS,
     available_pretrained,
+    bin_factors,
     export_pretrained,
     network_domain,
     pretrained,
@@ -48,8 +50,8 @@ def test_shipped_model_is_calibrated_for_solve(name):
     # at least 2,000 samples of its own distribution, and every other family tried
     assert fams["in distribution"]["admitted"] >= 1800
     assert sum(f["admitted"] for f in fams.values()) >= 3000
-    assert set(fams) == {"in distribution", "sensors", "other distribution",
-                         "out of distribution"}
+    # exact potentials and sensor values of each distribution
+    assert set(fams) == set(SENSOR_FAMILIES) | set(SENSOR_FAMILIES.values())
     _assert_factors(cal)
     # calibrated on potentials from neither the training set nor the test set
     assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
@@ -58,16 +60,22 @@ def test_shipped_model_is_calibrated_for_solve(name):
 
 
 def _assert_factors(cal):
-    """Each bin's factor is the largest family bound in it (the largest of all where no
-    sample fell), never below a lower bin's; the bins hold every admitted sample."""
-    fams = cal["families"].values()
-    per_bin = [[f["bins"][k]["bound"] for f in fams if f["bins"][k]["n"]]
-               for k in range(len(cal["limits"]) + 1)]
-    top = max(b for bs in per_bin for b in bs)
-    assert cal["factors"] == list(np.maximum.accumulate([max(bs) if bs else top
-                                                          for bs in per_bin]))
+    """Each bin's factor is the largest bound in it over the families of exact potentials
+    (for sensor values: of sensor values; the largest of all where no sample fell), never
+    below a lower bin's; the bins hold every admitted sample."""
+    sensor = set(SENSOR_FAMILIES.values())
+    for key, pick in (("factors", lambda fam: fam not in sensor),
+                      ("factors_sensors", lambda fam: fam in sensor)):
+        fams = [f for fam, f in cal["families"].items() if pick(fam)]
+        per_bin = [[f["bins"][k]["bound"] for f in fams if f["bins"][k]["n"]]
+                   for k in range(len(cal["limits"]) + 1)]
+        top = max(b for bs in per_bin for b in bs)
+        assert cal[key] == list(np.maximum.accumulate([max(bs) if bs else top
+                                                       for bs in per_bin]))
+        assert cal[key] == bin_factors(fams)
     assert cal["factor"] == cal["factors"][0]
-    assert all(sum(c["n"] for c in f["bins"]) == f["admitted"] for f in fams)
+    assert all(sum(c["n"] for c in f["bins"]) == f["admitted"]
+               for f in cal["families"].values())
     assert cal["limits"] == [1e-3, 1e-2]
 
 
@@ -85,7 +93,9 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     fams = cal["families"]
     assert fams["in distribution"]["drawn"] == 30 and fams["sensors"]["drawn"] == 30
     assert fams["other distribution"]["drawn"] == 20
+    assert fams["sensors: other distribution"]["drawn"] == 20
     assert 0 < fams["out of distribution"]["admitted"] <= 12
+    assert fams["sensors: out of distribution"]["drawn"] == 12
     # the factor is the largest family's bound, each a bound on its 99.9 % quantile
     _assert_factors(cal)
     assert all(c["bound"] <= f["ratio_max"] for f in fams.values() for c in f["bins"]
