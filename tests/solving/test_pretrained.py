@@ -1,9 +1,13 @@
 import json
+import shutil
+
+import h5py
 
 import numpy as np
 import pytest
 
 import nh_operators as nh
+from nh_operators.data._h5 import checksum as h5_checksum
 from nh_operators.cli import main
 from nh_operators.potentials import in_domain
 from nh_operators.solving import (
@@ -114,7 +118,7 @@ def test_unknown_name_lists_the_available():
         pretrained("nope")
 
 
-def test_export_round_trip_through_the_cli(tmp_path, capsys):
+def test_export_round_trip_through_the_cli(tmp_path, capsys, monkeypatch):
     data, run, out = tmp_path / "d.h5", tmp_path / "run", tmp_path / "weights" / "tiny"
     assert main(["generate", "--size", "20", "--seed", "5", "--out", str(data), "--quiet"]) == 0
     assert main(["train", "--model", "deeponet", "--data", str(data), "--epochs", "1",
@@ -149,6 +153,27 @@ def test_export_round_trip_through_the_cli(tmp_path, capsys):
     assert main(["generate", "--size", "20", "--seed", "6", "--out", str(other), "--quiet"]) == 0
     with pytest.raises(ValueError, match="not the dataset this run trained on"):
         export_pretrained(run, out, data=other)
+
+    # refit_domain: a domain.json fitted before the wall bound gets it, the rest the same
+    from nh_operators.solving import shipped
+
+    monkeypatch.setattr(shipped, "WEIGHTS", out.parent)
+    monkeypatch.setattr(shipped, "resolve_pretrained", lambda name: name)
+    (out / "domain.json").write_text(json.dumps({k: v for k, v in domain.items()
+                                                 if k != "min_wall_force"}))
+    assert shipped.refit_domain("tiny", data) == domain
+    assert json.loads((out / "domain.json").read_text()) == domain
+    # the same sensor values with other labels (the labels' solver changed) pass; other
+    # sensor values do not
+    relabelled = tmp_path / "relabelled.h5"
+    shutil.copyfile(data, relabelled)
+    with h5py.File(relabelled, "r+") as f:  # as a new generation would write it
+        f["q"][0, 1] += 1e-3
+        f.attrs["checksum"] = h5_checksum(f)
+    assert nh.load_dataset(relabelled).checksum != dataset.checksum
+    assert shipped.refit_domain("tiny", relabelled)["max_slope"] == domain["max_slope"]
+    with pytest.raises(ValueError, match="its training rows give other V_range"):
+        shipped.refit_domain("tiny", other)
 
 
 def test_a_bare_model_name_means_its_algorithm_1_weights():
