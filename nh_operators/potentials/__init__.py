@@ -12,7 +12,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "bounded": ["BoundedPotential", "check_bounded"],
     "coerce": ["CallablePotential", "as_potential", "check_force"],
     "domain": ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations", "in_domain",
-               "fit_domain", "wall_forces"],
+               "domain_stats", "fit_domain", "wall_forces"],
     "expression": ["FUNCTIONS", "parse_expression", "parse_potential"],
     "ood": ["OOD_FAMILIES", "ood_potential", "ood_potentials"],
     "physical": ["PHYSICAL_POTENTIALS", "AnalyticPotential"],

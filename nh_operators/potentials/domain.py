@@ -11,7 +11,7 @@ from .._constants import SENSORS, V0
 from .._sensors import sensor_values
 
 __all__ = ["GENERATOR_DOMAIN", "OutOfDomainWarning", "domain_violations", "in_domain",
-           "fit_domain", "wall_forces"]
+           "domain_stats", "fit_domain", "wall_forces"]
 
 
 class OutOfDomainWarning(UserWarning):
@@ -69,7 +69,7 @@ def domain_violations(V, domain=None):
         raise ValueError(f"V must hold finite values at the {SENSORS.size} sensors, shape "
                          f"(100,) or (N, 100); got shape {V.shape}")
     rows = np.atleast_2d(V)
-    stats = _row_stats(rows)
+    stats = domain_stats(rows)
     lo, hi = d["V_range"]
     source = d.get("source", "the generator")
     checks = [
@@ -105,9 +105,16 @@ def domain_violations(V, domain=None):
     return messages
 
 
-def _row_stats(rows):
-    """Per row of sensor values (N, 100): min, max, max |ΔV/Δq|, max |Δ²V/Δq²|, and the
-    weaker of the two wall forces (:func:`wall_forces`)."""
+def domain_stats(rows):
+    """What a domain bounds, per row of sensor values (N, 100): ``min``, ``max``,
+    ``slope`` (max |ΔV/Δq|), ``curvature`` (max |Δ²V/Δq²|) and ``wall_force`` (the weaker
+    of the two, :func:`wall_forces`); for :func:`in_domain` against several domains.
+
+    Example:
+        >>> s = domain_stats(8 * (SENSORS[None] - 0.5) ** 2)
+        >>> round(float(s["min"][0]), 4), round(float(s["wall_force"][0]), 6)
+        (0.0001, 8.0)
+    """
     width = SENSORS[1] - SENSORS[0]
     return {"min": rows.min(axis=1), "max": rows.max(axis=1),
             "slope": np.abs(np.diff(rows, axis=1)).max(axis=1) / width,
@@ -142,13 +149,14 @@ def wall_forces(V):
     return out if V.ndim == 2 else out[0]
 
 
-def in_domain(V, domain=None):
+def in_domain(V, domain=None, *, stats=None):
     """Which rows of sensor values pass every check of :func:`domain_violations`.
 
     Args:
         V: sensor values, shape (N, 100) (or (100,)), finite.
         domain: bounds as in :data:`GENERATOR_DOMAIN` (the default) or from
             :func:`fit_domain`.
+        stats: :func:`domain_stats` of V, if already computed.
 
     Returns:
         bool array (N,) (a 0-d bool for one row).
@@ -159,7 +167,7 @@ def in_domain(V, domain=None):
     """
     d = GENERATOR_DOMAIN if domain is None else domain
     V = np.asarray(V, dtype=np.float64)
-    stats = _row_stats(np.atleast_2d(V))
+    stats = domain_stats(np.atleast_2d(V)) if stats is None else stats
     lo, hi = d["V_range"]
     ok = ((stats["min"] >= lo - 1e-9) & (stats["max"] <= hi + 1e-9)
           & (stats["min"] <= d["min_V_at_most"]) & (stats["slope"] <= d["max_slope"])
@@ -201,7 +209,7 @@ def fit_domain(V, *, slack=0.25, source="its training data"):
                          f"(N, 100) with N ≥ 1; got shape {V.shape}")
     if not slack >= 0:
         raise ValueError(f"slack must be ≥ 0, got {slack!r}")
-    stats = _row_stats(V)
+    stats = domain_stats(V)
     lo, hi = float(stats["min"].min()), float(stats["max"].max())
     pad = 0.1 * slack * (hi - lo)
     highest_min = float(stats["min"].max())

@@ -360,10 +360,13 @@ def _per_row_seconds(fn, rows, repeats=2):
 
 
 def _batched_network(name):
-    """What ``solve_many`` does with a network's rows: predict, estimate at the times."""
+    """What ``solve_many`` does with a network's rows of sensor values: predict, estimate
+    at the times (with the sensors' spline, which the classical rows share)."""
+    from ..solvers.rows import row_source
     from .many import _network_rows
 
-    return lambda V: _network_rows(name, V, None, TIMES, np.arange(len(V)), 1.0)
+    return lambda V: _network_rows(name, V, row_source(V, "sensors"), "sensors", TIMES,
+                                   np.arange(len(V)))
 
 
 def _batched_classical_timings(dataset, sizes):

@@ -7,10 +7,9 @@ tolerance, a shipped network is tried on the rows where :func:`solve` would try 
 in [0, 2], sensor values inside its domain; the rows at (0, 0) go to the networks trained
 at rest, the others to the networks that read a starting state), each row going to
 the cheapest network whose domain holds it (and on to the next where its estimate fails;
-a network offered many rows first answers a pilot of :data:`PILOT` and goes on only if
-the share it accepted there pays for its cost), its prediction kept where its own
-estimate meets the tolerance, and every other row is
-solved classically — all classical rows together, in one parallel numba kernel per
+from 2 · :data:`PILOT` rows on, every candidate first answers the same :data:`PILOT` rows,
+and their results there choose which networks go on and in which order), its prediction
+kept where its own estimate meets the tolerance, and every other row is solved classically — all classical rows together, in one parallel numba kernel per
 substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a progress
 bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
 """
@@ -24,7 +23,7 @@ import numpy as np
 
 from .._backend import single_threaded
 from .._constants import SENSORS, TIMES
-from ..potentials import BoundedPotential, check_bounded, in_domain
+from ..potentials import BoundedPotential, check_bounded, domain_stats, in_domain
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
@@ -32,34 +31,91 @@ from .auto_solve import DEFAULT_TOL, _calibration, _checked, _model, _ranked, _s
 from .catalog import network_domain, reads_state
 from .costs import _classical_seconds, _horizon_key, _neural_seconds
 from .acceptance import calibrated
-from .estimate import estimate_at, sensor_force
+from .estimate import estimate_at
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192
 
-#: Where a network is offered at least twice this many rows, it first answers this many
-#: (spread over them) and goes on only if the share it accepted pays for its cost there.
+#: Where at least twice this many rows may go to a network, every candidate first
+#: answers the same this many (spread over them); a network goes on only if the rows it
+#: accepted there, of those no network before it accepted, pay for its cost
+#: (:func:`_pilot_order`).
 PILOT = 512
 
 
 def _record(tried, name, rows, accepted):
     """Count a network's rows and accepted rows in ``tried`` (one entry per network)."""
-    if tried and tried[-1]["method"] == name:
-        tried[-1]["rows"] += int(rows)
-        tried[-1]["accepted"] += int(accepted)
-    else:
-        tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
+    for entry in tried:
+        if entry["method"] == name:
+            entry["rows"] += int(rows)
+            entry["accepted"] += int(accepted)
+            return
+    tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
 
 
-def _worth_it(name, share, tol, kind, horizon=None):
-    """Whether accepting ``share`` of the rows pays for a network's batched cost: share ·
-    T_classical > T_network, both per row as measured at calibration, the classical one
-    up to the latest asked time ``horizon``."""
-    cal = _calibration(name)
-    return (share * _classical_seconds(cal, tol, kind, True, horizon)
-            > _neural_seconds(cal, True))
+def _pilot_order(results, costs):
+    """The networks that go on past the pilot, in order.
+
+    ``results[name]``: (rows, q, p, estimate, accepted) of each network on its pilot rows;
+    ``costs[name]``: (classical, network) seconds per row. Greedily, the next network is
+    the one whose pilot rows that no network before it accepted would save the most
+    (share accepted · classical − network, per row offered); a network that saves
+    nothing there does not go on.
+
+    Example:
+        >>> rows = np.arange(4)
+        >>> results = {"a": (rows, None, None, None, np.array([1, 0, 0, 0], bool)),
+        ...            "b": (rows, None, None, None, np.array([0, 1, 1, 0], bool))}
+        >>> _pilot_order(results, {"a": (1.0, 0.3), "b": (1.0, 0.3)})
+        ['b']
+        >>> _pilot_order(results, {"a": (1.0, 0.1), "b": (1.0, 0.3)})
+        ['b', 'a']
+    """
+    order, answered = [], np.zeros(0, dtype=np.int64)
+    while True:
+        best, gain = None, 0.0
+        for name, (rows, *_, accepted) in results.items():
+            open_ = ~np.isin(rows, answered)
+            if name in order or not open_.any():
+                continue
+            classical, network = costs[name]
+            saving = open_.sum() * (accepted[open_].mean() * classical - network)
+            if saving > gain:
+                best, gain = name, saving
+        if best is None:
+            return order
+        order.append(best)
+        rows, *_, accepted = results[best]
+        answered = np.union1d(answered, rows[accepted])
+
+
+class _NetworkRuns:
+    """Networks run on rows of one ``solve_many`` call, their answers kept where their
+    estimate meets ``target`` and the row is still free (``out``: the call's q, p,
+    estimate, methods, neural and free arrays, written in place)."""
+
+    def __init__(self, values, src, kind, t, q0s, p0s, target, out):
+        self.args = (values, src, kind, t)
+        self.q0s, self.p0s, self.target, self.out = q0s, p0s, target, out
+
+    def run(self, name, rows):
+        """(rows, q, p, estimate, accepted) of network ``name`` on ``rows``; nothing kept."""
+        if not rows.size:
+            return rows, None, None, None, np.zeros(0, dtype=bool)
+        q, p, est = _network_rows(name, *self.args, rows, self.q0s, self.p0s)
+        return rows, q, p, est, est <= self.target
+
+    def keep(self, name, rows, q, p, est, accepted, tried):
+        """Keep the accepted answers of rows still free, and count them in ``tried``."""
+        q_out, p_out, estimate, methods, neural, free = self.out
+        take = accepted & free[rows]
+        rows_taken = rows[take]
+        q_out[rows_taken], p_out[rows_taken] = q[take], p[take]
+        estimate[rows_taken], methods[rows_taken] = est[take], name
+        neural[rows_taken], free[rows_taken] = True, False
+        _record(tried, name, rows.size, take.sum())
 
 
 #: Rows from which a progress bar is shown (``progress=None``).
@@ -120,30 +176,29 @@ def _bar(total, progress):
     return tqdm(total=total, unit="row", desc="solve_many")
 
 
-def _network_rows(name, V, src, t, rows, tol, q0s=0.0, p0s=0.0):
+def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0):
     """Predict rows ``rows`` with shipped model ``name`` from their states (q0s, p0s:
     scalars or one per row of V); (q, p, estimate) of those rows at their asked times
-    (the estimate there too: :func:`estimate_at`)."""
+    (the estimate there too: :func:`estimate_at`, with the force of ``src``, the rows'
+    :class:`~nh_operators.solvers.rows.RowSource`: the sensors' spline for sensor values,
+    whose coefficients it already holds; ``kind``: ``"sensors"`` or ``"exact"``)."""
     from ..models import predict
 
     model = _model(name)
     q0s, p0s = (np.broadcast_to(np.asarray(a, dtype=np.float64), (len(V),))[rows]
                 for a in (q0s, p0s))
     q, p = predict(model.net, network_input(name, V[rows], q0s, p0s), TIMES)
-    if src is None:
-        force = sensor_force(V[rows])
-    else:
-        sub = rows
 
-        def values(x):
-            return src.values_at(x, sub)
+    mine = src.subset(rows)  # the rows' coefficients, taken once
 
-        def slopes(x):
-            return -src.forces_at(x, sub)
+    def values(x):
+        return mine.values_at(x)
 
-        force = (values, slopes)
-    qa, pa, raw = estimate_at(q, p, *force, t if t.ndim == 1 else t[rows], q0=q0s, p0=p0s)
-    kind = "sensors" if src is None else "exact"
+    def slopes(x):
+        return -mine.forces_at(x)
+
+    qa, pa, raw = estimate_at(q, p, values, slopes, t if t.ndim == 1 else t[rows], q0=q0s,
+                              p0=p0s)
     estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind), np.inf)
     return qa, pa, estimate
 
@@ -238,45 +293,39 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         names = []
     if names:
         values = V if V is not None else potentials.V(SENSORS)
-        times_ok = t.max(axis=-1) <= TIMES[-1] + 1e-12
-        free = np.broadcast_to(times_ok, (n,)).copy()
-        # cheapest first; a row whose estimate one network fails goes on to the next
-        # candidate whose domain holds it (each is expected to save time on its own)
-        for name in names:
-            if method == "auto":   # a network for states answers the rows not at rest
-                mine = ~rest if reads_state(name) else rest
-                ok = free & mine & in_domain(values, network_domain(name))
-            else:
-                ok = free
-            rows = np.flatnonzero(ok)
-            if not rows.size:
-                continue
-            src_rows = None if V is not None else src
-            if method == "auto" and rows.size >= 2 * PILOT:
-                # its share on these rows, not on its calibration set, decides the rest
-                pilot = np.unique(np.linspace(0, rows.size - 1, PILOT).astype(np.int64))
-                rest_rows = np.delete(rows, pilot)
-                rows = rows[pilot]
-            else:
-                rest_rows = rows[:0]
-            for part in (rows, rest_rows):
-                if not part.size:
-                    continue
-                qn, pn, est = _network_rows(name, values, src_rows, t, part, target, q0s, p0s)
-                take = est <= target if method == "auto" else np.ones(part.size, dtype=bool)
-                q_out[part[take]], p_out[part[take]] = qn[take], pn[take]
-                estimate[part[take]] = est[take]
-                methods[part[take]] = name
-                neural[part[take]] = True
-                _record(tried, name, part.size, int(take.sum()))
-                free = free.copy()
-                free[part[take]] = False
-                classical_rows = np.setdiff1d(classical_rows, part[take])
-                if part is rows and rest_rows.size and not _worth_it(
-                        name, take.mean(), tol, kind, _horizon_key(t)):
+        free = np.broadcast_to(t.max(axis=-1) <= TIMES[-1] + 1e-12, (n,)).copy()
+        stats = domain_stats(values)  # once for every network's domain
+        # a network for states answers the rows not at rest, the others those at rest
+        eligible = {name: free & (~rest if reads_state(name) else rest)
+                    & in_domain(values, network_domain(name), stats=stats)
+                    if method == "auto" else free for name in names}
+        out = (q_out, p_out, estimate, methods, neural, free)
+        runs = _NetworkRuns(values, src, "sensors" if V is not None else "exact", t, q0s,
+                            p0s, target if method == "auto" else np.inf, out)
+        order, pilot = names, np.zeros(n, dtype=bool)
+        if method == "auto" and free.sum() >= 2 * PILOT:
+            # every candidate answers the same spread-out pilot rows; their results there
+            # choose which networks go on, in which order (:func:`_pilot_order`)
+            pilot[np.flatnonzero(free)[np.linspace(0, free.sum() - 1, PILOT).astype(int)]] = True
+            results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
+                       for name in names}  # (rows, q, p, estimate, accepted)
+            costs = {name: (_classical_seconds(_calibration(name), tol, kind, True,
+                                               _horizon_key(t)),
+                            _neural_seconds(_calibration(name), True)) for name in names}
+            order = _pilot_order(results, costs)
+            for name in order:  # the pilot rows, each answered by the first that accepts
+                runs.keep(name, *results[name], tried)
+            for name in names:
+                part, take = results[name][0], results[name][4]
+                if name not in order and part.size:
+                    _record(tried, name, part.size, 0)
                     tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
-                                            f"{part.size} rows: not worth its cost")
-                    break
+                                                f"{part.size} rows: not worth its cost")
+        for name in order:
+            part = np.flatnonzero(free & eligible[name] & ~pilot)
+            if part.size:
+                runs.keep(name, *runs.run(name, part), tried)
+        classical_rows = np.flatnonzero(~neural)
     substeps = np.zeros(n, dtype=np.int64)
     period = np.full(n, np.nan)
     bar = _bar(classical_rows.size, progress)

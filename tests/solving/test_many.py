@@ -168,3 +168,36 @@ def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
     assert entry["accepted"] == 0 and "not worth its cost" in entry["stopped"]
     assert not sol.neural.any()
     auto_solve._ranked.cache_clear()
+
+
+def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
+    """With a pilot, the cheapest candidate by calibration no longer goes first: every
+    candidate answers the same pilot rows, and the one that accepted rows there goes on
+    first. phaseonet-paper (ranked first, its estimate always failing) answers only the
+    pilot; phaseonet-alg1 answers the rest."""
+    from nh_operators.solving import auto_solve, many
+
+    monkeypatch.setattr(many, "PILOT", 8)
+    for name in nh.available_pretrained():
+        model = auto_solve._model(name)
+        cal = dict(model.calibration)
+        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
+        cal["families"] = {fam: dict(f, estimate_quantiles=cal["estimate_quantiles"])
+                           for fam, f in cal["families"].items()}
+        cost = {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9}.get(name, 1e3)
+        cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
+        if name == "phaseonet-paper":
+            cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
+            cal.pop("factors_sensors", None)
+        monkeypatch.setattr(model, "calibration", cal)
+    auto_solve._ranked.cache_clear()
+    V = np.asarray(nh.generate_dataset(30, seed=77, progress=False).V)
+    many_sol = nh.solve_many(V, nh.TIMES, tol=1e-2)
+    first, second = many_sol.tried
+    assert first["method"] == "phaseonet-alg1" and first["accepted"] >= 20
+    assert second == {"method": "phaseonet-paper", "rows": 8, "accepted": 0,
+                      "stopped": "accepted 0.0% of a pilot of 8 rows: not worth its cost"}
+    assert set(many_sol.methods[many_sol.neural]) == {"phaseonet-alg1"}
+    q_ref, p_ref = nh.integrate_sensors(V, nh.TIMES, substeps=256, check_resolution=False)
+    assert np.all(loss_per_sample(many_sol.q, many_sol.p, q_ref, p_ref)["L_tot"] <= 1e-2)
+    auto_solve._ranked.cache_clear()
