@@ -113,7 +113,7 @@ def domain_stats(rows):
     Example:
         >>> s = domain_stats(8 * (SENSORS[None] - 0.5) ** 2)
         >>> round(float(s["min"][0]), 4), round(float(s["wall_force"][0]), 6)
-        (0.0001, 8.0)
+        (0.0002, 8.0)
     """
     width = SENSORS[1] - SENSORS[0]
     return {"min": rows.min(axis=1), "max": rows.max(axis=1),

@@ -39,7 +39,7 @@ from ..solvers import ORDERS, adaptive_solve, coerce_potential
 from .catalog import (CALIBRATION, WEIGHTS, available_pretrained, network_domain, reads_state,
                       resolve_pretrained)
 from .costs import _classical_seconds, _horizon_key, _input_kind, _neural_seconds
-from .acceptance import acceptance_rate, calibrated, cautious_acceptance_rate
+from .acceptance import EARLY_HORIZON, acceptance_rate, calibrated, cautious_acceptance_rate
 from .estimate import estimate_at, sensor_force
 
 __all__ = ["Solution", "solve", "DEFAULT_TOL"]
@@ -129,7 +129,8 @@ def neural_solve(name, pot, information, t, q0=0.0, p0=0.0):
     with single_threaded():
         q, p, raw = neural_raw(name, pot, information, t, q0, p0)
         kind = "sensors" if information == "sensors" else "exact"
-        return q, p, float(calibrated(raw, _model(name).calibration, kind))
+        early = float(np.max(t)) <= EARLY_HORIZON
+        return q, p, float(calibrated(raw, _model(name).calibration, kind, early))
 
 
 def network_input(name, V, q0=0.0, p0=0.0):

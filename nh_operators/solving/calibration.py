@@ -21,15 +21,15 @@ from ..training import write_atomic
 from .auto_solve import _model, neural_raw, neural_solve
 from .catalog import CALIBRATION
 from .costs import SHORT_HORIZON
-from .acceptance import SENSOR_FAMILIES, bin_factors, calibrated
+from .acceptance import (CONFIDENCE, EARLY_HORIZON, SENSOR_FAMILIES, bin_factors, calibrated,
+                         upper_quantile)
 from .estimate import sensor_force
 
-__all__ = ["calibrate_pretrained", "calibration_families", "upper_quantile", "CLASSICAL_TOLS",
-           "QUANTILE", "CONFIDENCE", "LIMITS"]
+__all__ = ["calibrate_pretrained", "calibration_families", "CLASSICAL_TOLS", "QUANTILE",
+           "CONFIDENCE", "LIMITS"]
 
-#: The quantile of true / raw estimate that the factor bounds, and the confidence of the bound.
+#: The quantile of true / raw estimate that the factor bounds (with :data:`CONFIDENCE`).
 QUANTILE = 0.999
-CONFIDENCE = 0.95
 
 #: Raw estimates are calibrated in bins split at these values (L_tot units; 1e-3 is an
 #: RMS error of 3 % of the orbit's size): the estimate is first order in the error, so
@@ -77,9 +77,13 @@ def _classical_timings(key, pots):
 
 
 def _asked_times(rng):
-    """A random call's times: one time (30 %) or 2–100 uniform times in [0, 2]."""
+    """A random call's times: one time (30 %) or 2–100 uniform times in [0, h], h = 2
+    for a third of the calls, log-uniform in [:data:`EARLY_HORIZON`, 2] for a third and
+    in [0.02, :data:`EARLY_HORIZON`] for the last third (early calls, calibrated apart)."""
     m = 1 if rng.random() < 0.3 else int(rng.integers(2, 101))
-    return rng.uniform(0.0, TIMES[-1], m)
+    lo, hi = ((TIMES[-1], TIMES[-1]), (EARLY_HORIZON, TIMES[-1]),
+              (0.02, EARLY_HORIZON))[int(rng.integers(3))]
+    return rng.uniform(0.0, float(np.exp(rng.uniform(np.log(lo), np.log(hi)))), m)
 
 
 def _states(values, n, rng):
@@ -110,10 +114,11 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
     keep = np.flatnonzero(in_domain(V, network_domain(name)))
     net = _model(name).net
     q0s, p0s = (np.zeros(len(V)), np.zeros(len(V))) if states is None else states
-    true, raw = [], []
+    true, raw, early = [], [], []
     for lo in range(0, keep.size, group):
         rows = keep[lo:lo + group]
         t = _asked_times(rng)
+        early.append(np.full(rows.size, t.max() <= EARLY_HORIZON))
         state = {"q0": q0s[rows], "p0": p0s[rows]}
         q, p = predict(net, network_input(name, V[rows], **state), TIMES)
         if sensors:
@@ -129,8 +134,9 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
         true.append(loss_per_sample(qa, pa, q_ref, p_ref)["L_tot"])
         raw.append(r)
     if not true:
-        return np.zeros(0), np.zeros(0), 0
-    return np.concatenate(true), np.concatenate(raw), int(V.shape[0])
+        return np.zeros(0), np.zeros(0), 0, np.zeros(0, dtype=bool)
+    return (np.concatenate(true), np.concatenate(raw), int(V.shape[0]),
+            np.concatenate(early))
 
 
 def _ood_ratios(name, n, seed, rng, states=False):
@@ -140,11 +146,12 @@ def _ood_ratios(name, n, seed, rng, states=False):
     from ..solvers import reference_solve
     from .catalog import network_domain
 
-    true, raw = [], []
+    true, raw, early = [], [], []
     for pot in ood_potentials(n, seed):
         if not in_domain(pot.V(SENSORS), network_domain(name)):
             continue
         t = _asked_times(rng)
+        early.append(t.max() <= EARLY_HORIZON)
         state = {}
         if states:
             q0, p0 = _states(lambda x, pot=pot: pot.V(x), 1, rng)
@@ -152,41 +159,23 @@ def _ood_ratios(name, n, seed, rng, states=False):
         q, p, r = neural_raw(name, pot, "exact V", t, **state)
         true.append(float(loss_per_sample(q, p, *reference_solve(pot, t, **state))["L_tot"]))
         raw.append(r)
-    return np.array(true), np.array(raw), n
-
-
-def upper_quantile(ratios, quantile, confidence=CONFIDENCE, resamples=2000, seed=0):
-    """A bootstrap upper confidence bound on the ``quantile`` of ``ratios``: the
-    ``confidence`` quantile of the sample quantile over ``resamples`` resamples.
-
-    Example:
-        >>> r = np.random.default_rng(1).lognormal(size=3000)
-        >>> bool(np.quantile(r, 0.999) <= upper_quantile(r, 0.999) <= r.max())
-        True
-    """
-    ratios = np.asarray(ratios, dtype=np.float64)
-    rng = np.random.default_rng(seed)
-    picks = rng.integers(0, ratios.size, size=(resamples, ratios.size))
-    boot = np.quantile(ratios[picks], quantile, axis=1, method="higher")
-    return float(np.quantile(boot, confidence))
+    return np.array(true), np.array(raw), n, np.array(early, dtype=bool)
 
 
 def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
-                         n_sensors=500, seed=0):
-    """The samples that calibrate model ``name``: {family: (true, raw, drawn)}.
+                         n_sensors=None, seed=0):
+    """The samples that calibrate model ``name``: {family: (true, raw, drawn, early)},
+    ``early`` marking the samples of calls whose latest time is at most
+    :data:`EARLY_HORIZON`.
 
-    Families: ``in distribution`` (the dataset's potentials, exact force and truth),
-    ``sensors`` (the first ``n_sensors`` as sensor values: force and truth from their
-    spline), ``other distribution`` (``other``, a labelled-free batched B-spline from
-    the other generator, if given) and ``out of distribution``
-    (:func:`~nh_operators.potentials.ood_potentials`), and the last two again as sensor
-    values (:data:`~nh_operators.solving.acceptance.SENSOR_FAMILIES`; their asked times
-    from a stream of their own, so the other families are those of a calibration made
-    before them): each only where the network's
-    domain admits it — what ``auto`` would hand the network — and each at random asked
-    times (:func:`_asked_times`), truth at exactly those times. A network that reads a
-    starting state (:func:`~nh_operators.solving.reads_state`) is calibrated from the
-    dataset's own states (it must have them) and, for the other families, from states
+    Exact potentials: ``in distribution`` (the dataset's), ``other distribution``
+    (``other``, a batched B-spline of the other generator, if given), ``out of
+    distribution`` (:func:`~nh_operators.potentials.ood_potentials`); the same as sensor
+    values (:data:`~nh_operators.solving.acceptance.SENSOR_FAMILIES`: force and truth
+    from their spline; ``sensors``: the first ``n_sensors``, default all), each row at
+    :data:`SENSOR_PASSES` sets of times. Each only where the network's domain admits it
+    (what ``auto`` would hand it), at random asked times (:func:`_asked_times`). A network
+    that reads a state starts from the dataset's own or, elsewhere, from states
     stratified by energy (:func:`~nh_operators.solvers.energy_states`).
     """
     from ..potentials import ood_potentials
@@ -201,32 +190,39 @@ def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
                          "states (nh-operators generate --states energy)")
     own = (dataset.q0, dataset.p0) if states else None
     out = {"in distribution": _batch_ratios(name, pots, False, rng, states=own)}
-    head = type(pots)(pots.control_q[:n_sensors], pots.control_V[:n_sensors])
-    out["sensors"] = _batch_ratios(name, head, True, rng, states=own and (
-        own[0][:n_sensors], own[1][:n_sensors]))
     if other is not None:
         drawn = _states(row_source(other, "exact V").values_at, len(other.control_q),
                         rng) if states else None
         out["other distribution"] = _batch_ratios(name, other, False, rng, states=drawn)
     if n_ood:
         out["out of distribution"] = _ood_ratios(name, n_ood, ood_seed, rng, states)
-    own_rng = np.random.default_rng([seed, 1])
+    head = slice(0, n_sensors)
+    out["sensors"] = _sensor_family(name, dataset.V[head], rng, states,
+                                    own and (own[0][head], own[1][head]))
     if other is not None:
         out[SENSOR_FAMILIES["other distribution"]] = _sensor_family(
-            name, other.V(SENSORS), own_rng, states)
+            name, other.V(SENSORS), rng, states)
     if n_ood:
         V = np.stack([pot.V(SENSORS) for pot in ood_potentials(n_ood, ood_seed)])
-        out[SENSOR_FAMILIES["out of distribution"]] = _sensor_family(name, V, own_rng, states)
+        out[SENSOR_FAMILIES["out of distribution"]] = _sensor_family(name, V, rng, states)
     return out
 
 
-def _sensor_family(name, V, rng, states):
-    """:func:`_batch_ratios` on sensor values V (N, 100); ``states``: from states
-    stratified by energy on their splines."""
+#: Sets of asked times per row in a family of sensor values.
+SENSOR_PASSES = 3
+
+
+def _sensor_family(name, V, rng, states, own=None):
+    """:func:`_batch_ratios` on sensor values V (N, 100), :data:`SENSOR_PASSES` times;
+    ``states``: the rows' own (``own``) or drawn stratified by energy on their splines."""
     from ..solvers.rows import row_source
 
-    drawn = _states(row_source(V, "sensors").values_at, len(V), rng) if states else None
-    return _batch_ratios(name, V, True, rng, states=drawn)
+    V = np.asarray(V, dtype=np.float64)
+    if states and own is None:
+        own = _states(row_source(V, "sensors").values_at, len(V), rng)
+    parts = [_batch_ratios(name, V, True, rng, states=own) for _ in range(SENSOR_PASSES)]
+    true, raw, early = (np.concatenate([p[k] for p in parts]) for k in (0, 1, 3))
+    return true, raw, len(V), early.astype(bool)
 
 
 def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
@@ -290,35 +286,43 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
               dataset.checksum, "ood_seed": ood_seed, "limits": list(LIMITS),
               "families": {}, "initial_state": reads_state(name)}
-    for fam, (true, raw, drawn) in fams.items():
+    for fam, (true, raw, drawn, early) in fams.items():
         ratio = true / np.maximum(raw, 1e-300)
-        entry = {"drawn": drawn, "admitted": int(true.size), "bins": []}
+        entry = {"drawn": drawn, "admitted": int(true.size)}
         if true.size:
             entry.update(ratio_median=float(np.median(ratio)), ratio_max=float(ratio.max()))
         where = np.searchsorted(LIMITS, raw, side="left")  # bin k: (limit k-1, limit k]
-        for k in range(len(LIMITS) + 1):
-            pick = where == k
-            cell = {"n": int(pick.sum())}
-            if pick.any():
-                cell["bound"] = upper_quantile(ratio[pick], quantile)
-            entry["bins"].append(cell)
+        for key, calls in (("bins", ~early), ("bins_early", early)):
+            entry[key] = []
+            for k in range(len(LIMITS) + 1):
+                pick = (where == k) & calls
+                cell = {"n": int(pick.sum())}
+                if pick.any():
+                    cell["bound"] = upper_quantile(ratio[pick], quantile)
+                entry[key].append(cell)
         result["families"][fam] = entry
     families = result["families"]
     sensor = set(SENSOR_FAMILIES.values())
-    factors = bin_factors(f for fam, f in families.items() if fam not in sensor)
-    sensor_factors = bin_factors(f for fam, f in families.items() if fam in sensor)
-    if factors is None or sensor_factors is None:
-        raise ValueError(f"{name}: no calibration input lies inside the network's domain")
-    result.update(factors=factors, factor=factors[0], factors_sensors=sensor_factors)
-    true, raw, _ = fams["in distribution"]
+    for suffix, pick in (("", lambda fam: fam not in sensor), ("_sensors", sensor.__contains__)):
+        for calls in ("", "_early"):
+            factors = bin_factors((f for fam, f in families.items() if pick(fam)),
+                                  "bins" + calls)
+            if factors is None:
+                raise ValueError(f"{name}: no calibration input lies inside the network's "
+                                 "domain")
+            result["factors" + suffix + calls] = factors
+    result["factor"] = result["factors"][0]
+    true, raw, _, early = fams["in distribution"]
+    n = int(true.size)
+    true, raw = true[~early], raw[~early]  # what a call of the whole orbit is accepted on
     estimate = calibrated(raw, result)
     probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
-    for fam, (f_true, f_raw, _) in fams.items():  # how often each family is accepted
-        if f_true.size:
+    for fam, (f_true, f_raw, _, f_early) in fams.items():  # how often each is accepted
+        if (~f_early).any():
             kind = "sensors" if fam in SENSOR_FAMILIES.values() else "exact"
-            families[fam]["estimate_quantiles"] = [
-                float(v) for v in np.quantile(calibrated(f_raw, result, kind), probabilities)]
-    result.update(n=int(true.size), probabilities=probabilities,
+            families[fam]["estimate_quantiles"] = [float(v) for v in np.quantile(
+                calibrated(f_raw[~f_early], result, kind), probabilities)]
+    result.update(n=n, probabilities=probabilities,
                   estimate_quantiles=[float(v) for v in np.quantile(estimate, probabilities)],
                   L_quantiles=[float(v) for v in np.quantile(true, probabilities)],
                   estimate_over_true_median=float(np.median(estimate / np.maximum(true,

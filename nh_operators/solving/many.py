@@ -30,7 +30,7 @@ from ..solvers.states import check_states, state_arrays
 from .auto_solve import DEFAULT_TOL, _calibration, _checked, _model, _ranked, _solve, network_input
 from .catalog import network_domain, reads_state
 from .costs import _classical_seconds, _horizon_key, _neural_seconds
-from .acceptance import calibrated
+from .acceptance import EARLY_HORIZON, calibrated
 from .estimate import estimate_at
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
@@ -65,12 +65,13 @@ def _pilot_order(results, costs):
     nothing there does not go on.
 
     Example:
-        >>> rows = np.arange(4)
-        >>> results = {"a": (rows, None, None, None, np.array([1, 0, 0, 0], bool)),
-        ...            "b": (rows, None, None, None, np.array([0, 1, 1, 0], bool))}
-        >>> _pilot_order(results, {"a": (1.0, 0.3), "b": (1.0, 0.3)})
+        >>> rows, costs = np.arange(4), {"a": (1.0, 0.3), "b": (1.0, 0.3)}
+        >>> def results(a):  # b accepts rows 1 and 2, a the rows given
+        ...     return {"a": (rows, None, None, None, np.isin(rows, a)),
+        ...             "b": (rows, None, None, None, np.isin(rows, [1, 2]))}
+        >>> _pilot_order(results([1]), costs)  # a accepts nothing b did not
         ['b']
-        >>> _pilot_order(results, {"a": (1.0, 0.1), "b": (1.0, 0.3)})
+        >>> _pilot_order(results([0]), costs)  # alone, a would not pay; after b it does
         ['b', 'a']
     """
     order, answered = [], np.zeros(0, dtype=np.int64)
@@ -197,9 +198,11 @@ def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0):
     def slopes(x):
         return -mine.forces_at(x)
 
-    qa, pa, raw = estimate_at(q, p, values, slopes, t if t.ndim == 1 else t[rows], q0=q0s,
-                              p0=p0s)
-    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind), np.inf)
+    t = t if t.ndim == 1 else t[rows]
+    qa, pa, raw = estimate_at(q, p, values, slopes, t, q0=q0s, p0=p0s)
+    early = t.max(axis=-1) <= EARLY_HORIZON  # per row, or one for all
+    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind, early),
+                        np.inf)
     return qa, pa, estimate
 
 

@@ -1,8 +1,9 @@
-"""Reading a calibration by input kind: exact potentials and sensor values."""
+"""Reading a calibration by input kind (exact potentials, sensor values) and horizon."""
 
 import numpy as np
 import pytest
 
+import nh_operators as nh
 from nh_operators.solving import (
     SENSOR_FAMILIES,
     acceptance_rate,
@@ -71,3 +72,19 @@ def test_the_share_a_kind_counts_on_reads_its_own_families():
     older = _calibration(sensors=False)
     assert acceptance_rate(older, tol, kind="sensors") == acceptance_rate(older, tol)
     assert cautious_acceptance_rate(older, tol, "sensors") == pytest.approx(0.25)
+
+
+@pytest.mark.parametrize("times, key", [([0.05, 0.3], "factors_sensors_early"),
+                                        ([0.3, 1.5], "factors_sensors")])
+def test_a_call_is_estimated_with_the_factors_of_its_horizon(times, key):
+    """A call whose latest time is at most EARLY_HORIZON gets the early factors."""
+    from nh_operators.solving import auto_solve
+    from nh_operators.solving.acceptance import EARLY_HORIZON
+
+    assert (max(times) <= EARLY_HORIZON) == key.endswith("_early")
+    V, name, t = 8 * (nh.SENSORS - 0.5) ** 2, "phaseonet-paper", np.array(times)
+    cal = auto_solve._model(name).calibration
+    *_, raw = auto_solve.neural_raw(name, V, "sensors", t)
+    *_, estimate = auto_solve.neural_solve(name, V, "sensors", t)
+    factor = cal[key][int(np.searchsorted(cal["limits"], raw))]
+    assert estimate == pytest.approx(factor * raw, rel=1e-12)

@@ -71,14 +71,15 @@ def _assert_factors(cal):
     for key, pick in (("factors", lambda fam: fam not in sensor),
                       ("factors_sensors", lambda fam: fam in sensor)):
         fams = [f for fam, f in cal["families"].items() if pick(fam)]
-        per_bin = [[f["bins"][k]["bound"] for f in fams if f["bins"][k]["n"]]
-                   for k in range(len(cal["limits"]) + 1)]
-        top = max(b for bs in per_bin for b in bs)
-        assert cal[key] == list(np.maximum.accumulate([max(bs) if bs else top
-                                                       for bs in per_bin]))
-        assert cal[key] == bin_factors(fams)
+        for calls in ("", "_early"):  # calls of the whole orbit, early calls
+            per_bin = [[f["bins" + calls][k]["bound"] for f in fams
+                        if f["bins" + calls][k]["n"]] for k in range(len(cal["limits"]) + 1)]
+            top = max(b for bs in per_bin for b in bs)
+            assert cal[key + calls] == list(np.maximum.accumulate([max(bs) if bs else top
+                                                                   for bs in per_bin]))
+            assert cal[key + calls] == bin_factors(fams, "bins" + calls)
     assert cal["factor"] == cal["factors"][0]
-    assert all(sum(c["n"] for c in f["bins"]) == f["admitted"]
+    assert all(sum(c["n"] for c in f["bins"] + f["bins_early"]) == f["admitted"]
                for f in cal["families"].values())
     assert cal["limits"] == [1e-3, 1e-2]
 
@@ -86,6 +87,7 @@ def _assert_factors(cal):
 def test_calibrate_pretrained_without_writing(tmp_path):
     from nh_operators.data import generate_dataset
     from nh_operators.solving import calibrate_pretrained, upper_quantile
+    from nh_operators.solving.calibration import SENSOR_PASSES
 
     path = WEIGHTS / "deeponet-alg1" / "calibration.json"
     before = path.read_bytes()
@@ -96,6 +98,8 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     assert path.read_bytes() == before and cal["n"] == 30
     fams = cal["families"]
     assert fams["in distribution"]["drawn"] == 30 and fams["sensors"]["drawn"] == 30
+    # sensor values: every admitted row at SENSOR_PASSES sets of times
+    assert fams["sensors"]["admitted"] == SENSOR_PASSES * fams["in distribution"]["admitted"]
     assert fams["other distribution"]["drawn"] == 20
     assert fams["sensors: other distribution"]["drawn"] == 20
     assert 0 < fams["out of distribution"]["admitted"] <= 12
