@@ -16,11 +16,12 @@ median of ``--repeats``), next to RK4 on the sensors at 1 substep timed in the s
 and prints a markdown table. Inference-only rows (bfloat16, TorchScript,
 ``torch.compile``, two threads) reuse the base row's weights.
 
-``solve`` measures what the shipped ``phaseonet-<dataset>`` saves ``nh.solve_many`` on
-``--size`` fresh potentials of the dataset's distribution given as sensor values, at the
-100 standard times and tol 1e-3, 1e-4, 1e-5: ``method="auto"`` (a network where its
-calibrated estimate meets tol) against ``method="rk4"`` (the classical solver alone),
-each timed once after a warm-up on 50 rows, one thread. Every answer is checked against
+``solve`` measures what the shipped networks save ``nh.solve_many`` on ``--size`` fresh
+potentials of the dataset's distribution given as sensor values, at the 100 standard
+times and tol 1e-3, 1e-4, 1e-5: ``method="auto"`` (a network where its calibrated
+estimate meets tol) against ``method="rk4"`` (the classical solver alone), the median of
+``--solve-repeats`` calls of each, alternating, after :func:`nh_operators.preload` and a
+warm-up on 50 rows, one thread. Every answer is checked against
 the truth of what ``solve_many`` was given, the sensor spline's trajectory (RK4 at 256
 substeps of the grid, as the calibration's sensor family), not the B-spline's labels.
 
@@ -287,28 +288,33 @@ def solve(args):
     if args.head_to_head_only:
         return
     print(f"\n{args.size} fresh {args.dataset} potentials (seed {args.seed}) as sensor "
-          f"values, {len(nh.TIMES)} times; CPU, one thread; shipped {name}")
+          f"values, {len(nh.TIMES)} times; CPU, one thread; shipped networks loaded first "
+          f"(nh.preload); seconds: median of {args.solve_repeats} calls each, alternating")
     print("| tol | classical s | auto s | speed-up | network share (any network) | "
           "worst true/tol |")
     print("|---|---|---|---|---|---|")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        nh.preload()
         nh.solve_many(V[:50], nh.TIMES, tol=1e-3)
         nh.solve_many(V[:50], nh.TIMES, tol=1e-3, method="rk4")
         for tol in (1e-3, 1e-4, 1e-5):
-            start = time.perf_counter()
-            classical = nh.solve_many(V, nh.TIMES, tol=tol, method="rk4")
-            mid = time.perf_counter()
-            auto = nh.solve_many(V, nh.TIMES, tol=tol)
-            end = time.perf_counter()
+            seconds = {"rk4": [], "auto": []}
+            for _ in range(args.solve_repeats):
+                for method in seconds:
+                    start = time.perf_counter()
+                    sol = nh.solve_many(V, nh.TIMES, tol=tol, method=method)
+                    seconds[method].append(time.perf_counter() - start)
+                    if method == "auto":
+                        auto = sol
+                    del sol
+            classical, neural = (float(np.median(seconds[m])) for m in ("rk4", "auto"))
             true = 0.5 * (((auto.q - q_spline) ** 2).mean(1)
                           + ((auto.p - p_spline) ** 2).mean(1))
             share = float(np.mean(auto.neural))  # any network: a row the other one
             # rejects goes on to this one, and the other may accept some rows
-            print(f"| {tol:g} | {mid - start:.2f} | {end - mid:.2f} | "
-                  f"{(mid - start) / (end - mid):.2f}× | {share:.1%} | "
-                  f"{true.max() / tol:.2g} |", flush=True)
-            del classical
+            print(f"| {tol:g} | {classical:.2f} | {neural:.2f} | {classical / neural:.2f}× | "
+                  f"{share:.1%} | {true.max() / tol:.2g} |", flush=True)
 
 
 def main():
@@ -323,6 +329,8 @@ def main():
     ap.add_argument("--seed", type=int, help="training seed (default 0) or, for solve, "
                     "the fresh potentials' seed (default 4242)")
     ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--solve-repeats", type=int, default=3,
+                    help="solve: calls of each path per tolerance (the median is reported)")
     ap.add_argument("--also", action="append", default=[],
                     help="solve: a run directory timed beside the shipped network")
     ap.add_argument("--head-to-head-only", action="store_true",

@@ -86,37 +86,38 @@ def domain_table(paths):
               + " | ".join(f"{in_domain(V, d).mean():.1%}" for V in sets.values()) + " |")
 
 
-FAMILIES = ("in distribution", "sensors", "other distribution", "out of distribution")
+FAMILIES = ("in distribution", "other distribution", "out of distribution")
 
 
 def calibration_table():
     """The calibration of each shipped model (``calibration.json``, ``nh-operators
-    calibrate``): per family of calibration inputs, how many the domain admitted and,
-    per bin of the raw estimate, the bound on the 99.9 % quantile of true / raw (with
-    the count where it is not all of them); the factors used (per bin, the largest bound,
-    never below a lower bin's); the median calibrated estimate / true on the
-    in-distribution family; one network solve's time."""
-    print("\n| model | " + " | ".join(f"{f}: admitted; per bin: bound (n)" for f in FAMILIES)
-          + " | factors | median estimate / true | network solve, µs | load average |")
-    print("|---|" + "---:|" * (len(FAMILIES) + 4))
+    calibrate``): per distribution, the potentials its domain admitted (as exact
+    potentials; as sensor values each is sampled at three sets of times); the factors per
+    bin of the raw estimate (split at 1e-3 and 1e-2), for exact potentials and sensor
+    values, for calls of the whole orbit and early calls (latest time ≤ 0.5); the median
+    calibrated estimate / true on the in-distribution family (calls of the whole orbit);
+    one network solve's time."""
+    from nh_operators.solving import SENSOR_FAMILIES
+
+    print("\n| model | admitted: " + " / ".join(FAMILIES) + " | factors: exact | "
+          "sensor values | early, exact | early, sensor values | median estimate / true | "
+          "network solve, µs |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for name in available_pretrained():
         path = WEIGHTS / name / "calibration.json"
         if not path.is_file():
-            print(f"| {name} | not calibrated |" + " |" * (len(FAMILIES) + 3))
+            print(f"| {name} | not calibrated |" + " |" * 6)
             continue
         c = json.loads(path.read_text())
-        cells = []
-        for fam in FAMILIES:
-            f = c.get("families", {}).get(fam)
-            if not f or not f["admitted"]:
-                cells.append("–" if not f else f"0/{f['drawn']}")
-                continue
-            cells.append(f"{f['admitted']}/{f['drawn']}; " + ", ".join(
-                f"{b['bound']:.3g} ({b['n']})" if b["n"] else "–" for b in f["bins"]))
-        print(f"| {name} | " + " | ".join(cells) + " | "
-              + ", ".join(f"{x:.3g}" for x in c["factors"])
-              + f" | {c['estimate_over_true_median']:.3g} | {1e6 * c['neural_seconds']:.0f} | "
-              f"{c['device'].get('load_average', float('nan'))} |")
+        fams = c.get("families", {})
+        admitted = " / ".join(f"{fams[f]['admitted']}/{fams[f]['drawn']}" if f in fams
+                              else "–" for f in FAMILIES)
+        factors = [", ".join(f"{x:.3g}" for x in c[k]) if k in c else "–"
+                   for k in ("factors", "factors_sensors", "factors_early",
+                             "factors_sensors_early")]
+        assert set(SENSOR_FAMILIES) == set(FAMILIES)
+        print(f"| {name} | {admitted} | " + " | ".join(factors)
+              + f" | {c['estimate_over_true_median']:.3g} | {1e6 * c['neural_seconds']:.0f} |")
 
 
 def main():
