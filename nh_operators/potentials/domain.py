@@ -107,8 +107,9 @@ def domain_violations(V, domain=None):
 
 def domain_stats(rows):
     """What a domain bounds, per row of sensor values (N, 100): ``min``, ``max``,
-    ``slope`` (max |ΔV/Δq|), ``curvature`` (max |Δ²V/Δq²|) and ``wall_force`` (the weaker
-    of the two, :func:`wall_forces`); for :func:`in_domain` against several domains.
+    ``slope`` (``max |ΔV/Δq|``), ``curvature`` (``max |Δ²V/Δq²|``) and ``wall_force``
+    (the weaker of the two, :func:`wall_forces`); for :func:`in_domain` against several
+    domains.
 
     Example:
         >>> s = domain_stats(8 * (SENSORS[None] - 0.5) ** 2)
