@@ -45,10 +45,12 @@ def _sensor_calibrated(calibration):
     return bool(calibration) and "factors_sensors" in calibration
 
 
-def calibrated(raw, calibration, kind="exact", early=False):
+def calibrated(raw, calibration, kind="exact", early=False, fine=False):
     """The calibrated estimate of raw estimates ``raw`` under a model's ``calibration``,
     for an input of ``kind`` (``"exact"`` or ``"sensors"``) and calls that are ``early``
-    or not (a bool, or one per raw estimate).
+    or not (a bool, or one per raw estimate); ``fine``: raw estimates on the finer grid
+    of :mod:`~nh_operators.solving.refine` (calls of the whole orbit only; infinite
+    where the calibration has no factors for them).
 
     ``factors[k] · raw`` for raw in bin k, the bins split at ``limits`` (the raw estimate
     is first order in the error: as the error grows, its ratio to the truth spreads
@@ -76,6 +78,9 @@ def calibrated(raw, calibration, kind="exact", early=False):
         else "factors"
     limits = calibration.get("limits", [])
     bins = np.searchsorted(limits, raw, side="left")
+    if fine:
+        factors = calibration.get(key + "_fine")
+        return np.full(raw.shape, np.inf) if factors is None else np.asarray(factors)[bins] * raw
     out = np.asarray(calibration.get(key, [calibration["factor"]]))[bins] * raw
     if np.any(early) and key + "_early" in calibration:
         out = np.where(early, np.asarray(calibration[key + "_early"])[bins] * raw, out)

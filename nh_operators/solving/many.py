@@ -27,11 +27,10 @@ from ..potentials import BoundedPotential, check_bounded, domain_stats, in_domai
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import _check_times
 from ..solvers.states import check_states, state_arrays
-from .auto_solve import DEFAULT_TOL, _calibration, _checked, _model, _ranked, _solve, network_input
+from .auto_solve import DEFAULT_TOL, _calibration, _checked, _ranked, _solve
 from .catalog import network_domain, reads_state
 from .costs import _classical_seconds, _horizon_key, _neural_seconds
-from .acceptance import EARLY_HORIZON, calibrated
-from .estimate import estimate_at
+from .network_pass import _NetworkRuns, _pilot_order, _record
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 
@@ -43,80 +42,6 @@ CHUNK = 8192
 #: accepted there, of those no network before it accepted, pay for its cost
 #: (:func:`_pilot_order`).
 PILOT = 512
-
-
-def _record(tried, name, rows, accepted):
-    """Count a network's rows and accepted rows in ``tried`` (one entry per network)."""
-    for entry in tried:
-        if entry["method"] == name:
-            entry["rows"] += int(rows)
-            entry["accepted"] += int(accepted)
-            return
-    tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
-
-
-def _pilot_order(results, costs):
-    """The networks that go on past the pilot, in order.
-
-    ``results[name]``: (rows, q, p, estimate, accepted) of each network on its pilot rows;
-    ``costs[name]``: (classical, network) seconds per row. Greedily, the next network is
-    the one whose pilot rows that no network before it accepted would save the most
-    (share accepted · classical − network, per row offered); a network that saves
-    nothing there does not go on.
-
-    Example:
-        >>> rows, costs = np.arange(4), {"a": (1.0, 0.3), "b": (1.0, 0.3)}
-        >>> def results(a):  # b accepts rows 1 and 2, a the rows given
-        ...     return {"a": (rows, None, None, None, np.isin(rows, a)),
-        ...             "b": (rows, None, None, None, np.isin(rows, [1, 2]))}
-        >>> _pilot_order(results([1]), costs)  # a accepts nothing b did not
-        ['b']
-        >>> _pilot_order(results([0]), costs)  # alone, a would not pay; after b it does
-        ['b', 'a']
-    """
-    order, answered = [], np.zeros(0, dtype=np.int64)
-    while True:
-        best, gain = None, 0.0
-        for name, (rows, *_, accepted) in results.items():
-            open_ = ~np.isin(rows, answered)
-            if name in order or not open_.any():
-                continue
-            classical, network = costs[name]
-            saving = open_.sum() * (accepted[open_].mean() * classical - network)
-            if saving > gain:
-                best, gain = name, saving
-        if best is None:
-            return order
-        order.append(best)
-        rows, *_, accepted = results[best]
-        answered = np.union1d(answered, rows[accepted])
-
-
-class _NetworkRuns:
-    """Networks run on rows of one ``solve_many`` call, their answers kept where their
-    estimate meets ``target`` and the row is still free (``out``: the call's q, p,
-    estimate, methods, neural and free arrays, written in place)."""
-
-    def __init__(self, values, src, kind, t, q0s, p0s, target, out):
-        self.args = (values, src, kind, t)
-        self.q0s, self.p0s, self.target, self.out = q0s, p0s, target, out
-
-    def run(self, name, rows):
-        """(rows, q, p, estimate, accepted) of network ``name`` on ``rows``; nothing kept."""
-        if not rows.size:
-            return rows, None, None, None, np.zeros(0, dtype=bool)
-        q, p, est = _network_rows(name, *self.args, rows, self.q0s, self.p0s)
-        return rows, q, p, est, est <= self.target
-
-    def keep(self, name, rows, q, p, est, accepted, tried):
-        """Keep the accepted answers of rows still free, and count them in ``tried``."""
-        q_out, p_out, estimate, methods, neural, free = self.out
-        take = accepted & free[rows]
-        rows_taken = rows[take]
-        q_out[rows_taken], p_out[rows_taken] = q[take], p[take]
-        estimate[rows_taken], methods[rows_taken] = est[take], name
-        neural[rows_taken], free[rows_taken] = True, False
-        _record(tried, name, rows.size, take.sum())
 
 
 #: Rows from which a progress bar is shown (``progress=None``).
@@ -175,35 +100,6 @@ def _bar(total, progress):
     from tqdm.auto import tqdm
 
     return tqdm(total=total, unit="row", desc="solve_many")
-
-
-def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0):
-    """Predict rows ``rows`` with shipped model ``name`` from their states (q0s, p0s:
-    scalars or one per row of V); (q, p, estimate) of those rows at their asked times
-    (the estimate there too: :func:`estimate_at`, with the force of ``src``, the rows'
-    :class:`~nh_operators.solvers.rows.RowSource`: the sensors' spline for sensor values,
-    whose coefficients it already holds; ``kind``: ``"sensors"`` or ``"exact"``)."""
-    from ..models import predict
-
-    model = _model(name)
-    q0s, p0s = (np.broadcast_to(np.asarray(a, dtype=np.float64), (len(V),))[rows]
-                for a in (q0s, p0s))
-    q, p = predict(model.net, network_input(name, V[rows], q0s, p0s), TIMES)
-
-    mine = src.subset(rows)  # the rows' coefficients, taken once
-
-    def values(x):
-        return mine.values_at(x)
-
-    def slopes(x):
-        return -mine.forces_at(x)
-
-    t = t if t.ndim == 1 else t[rows]
-    qa, pa, raw = estimate_at(q, p, values, slopes, t, q0=q0s, p0=p0s)
-    early = t.max(axis=-1) <= EARLY_HORIZON  # per row, or one for all
-    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind, early),
-                        np.inf)
-    return qa, pa, estimate
 
 
 def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progress=None):
@@ -316,6 +212,8 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
                                                _horizon_key(t)),
                             _neural_seconds(_calibration(name), True)) for name in names}
             order = _pilot_order(results, costs)
+            for name in order:
+                runs.stop_refining(name, costs[name])
             for name in order:  # the pilot rows, each answered by the first that accepts
                 runs.keep(name, *results[name], tried)
             for name in names:

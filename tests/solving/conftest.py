@@ -20,7 +20,8 @@ def open_costs(monkeypatch):
             cal = dict(model.calibration)
             cal["neural_seconds"] = cal["neural_seconds_batched"] = 0.0
             cal["factor"] *= factor_scale
-            for key in ("factors", "factors_sensors", "factors_early", "factors_sensors_early"):
+            for key in ("factors", "factors_sensors", "factors_early", "factors_sensors_early",
+                        "factors_fine", "factors_sensors_fine"):
                 if key in cal:
                     cal[key] = [factor_scale * f for f in cal[key]]
             cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]

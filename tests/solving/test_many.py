@@ -123,7 +123,8 @@ def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
         cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
         if name == "phaseonet-paper":
             cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            cal.pop("factors_sensors", None)  # sensor values too get the 1e12
+            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
+                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
     ds = nh.generate_dataset(30, seed=77, progress=False)
@@ -157,7 +158,8 @@ def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
             1e-9 if name == "phaseonet-paper" else 1e3)
         if name == "phaseonet-paper":
             cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            cal.pop("factors_sensors", None)  # sensor values too get the 1e12
+            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
+                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
     V = np.asarray(nh.generate_dataset(30, seed=78, progress=False, normalization="batch",
@@ -188,7 +190,8 @@ def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
         cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
         if name == "phaseonet-paper":
             cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            cal.pop("factors_sensors", None)
+            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
+                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
         monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
     V = np.asarray(nh.generate_dataset(30, seed=77, progress=False).V)
@@ -200,4 +203,33 @@ def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
     assert set(many_sol.methods[many_sol.neural]) == {"phaseonet-alg1"}
     q_ref, p_ref = nh.integrate_sensors(V, nh.TIMES, substeps=256, check_resolution=False)
     assert np.all(loss_per_sample(many_sol.q, many_sol.p, q_ref, p_ref)["L_tot"] <= 1e-2)
+    auto_solve._ranked.cache_clear()
+
+
+def test_a_row_the_grid_estimate_refuses_is_estimated_again_on_the_finer_grid(monkeypatch):
+    """phaseonet-paper's estimate on the grid is made to fail everywhere (factors 1e12);
+    its finer look (solving/refine.py, calibrated on its own) still accepts rows, and
+    every accepted answer meets tol against the sensor spline's trajectory."""
+    from nh_operators.solving import auto_solve
+
+    for name in nh.available_pretrained():
+        model = auto_solve._model(name)
+        cal = dict(model.calibration)
+        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
+        cal["neural_seconds"] = cal["neural_seconds_batched"] = (
+            1e-9 if name == "phaseonet-paper" else 1e3)
+        if name == "phaseonet-paper":
+            for key in ("factors", "factors_sensors"):
+                cal[key] = [1e12] * len(cal[key])
+        monkeypatch.setattr(model, "calibration", cal)
+    auto_solve._ranked.cache_clear()
+    V = np.asarray(nh.generate_dataset(30, seed=79, progress=False, normalization="batch",
+                                       pool=40).V)
+    tol = 1e-4
+    sol = nh.solve_many(V, nh.TIMES, tol=tol)
+    assert sol.neural.sum() >= 20 and set(sol.methods[sol.neural]) == {"phaseonet-paper"}
+    q_ref, p_ref = nh.integrate_sensors(V, nh.TIMES, substeps=256, check_resolution=False)
+    assert np.all(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"] <= tol)
+    # the estimate returned is the finer look's, calibrated with its own factors
+    assert np.all(sol.error_estimate[sol.neural] <= tol)
     auto_solve._ranked.cache_clear()

@@ -71,7 +71,8 @@ def _assert_factors(cal):
     for key, pick in (("factors", lambda fam: fam not in sensor),
                       ("factors_sensors", lambda fam: fam in sensor)):
         fams = [f for fam, f in cal["families"].items() if pick(fam)]
-        for calls in ("", "_early"):  # calls of the whole orbit, early calls
+        fine = ("_fine",) if key + "_fine" in cal else ()  # a network that refines
+        for calls in ("", "_early") + fine:  # calls of the whole orbit, early calls
             per_bin = [[f["bins" + calls][k]["bound"] for f in fams
                         if f["bins" + calls][k]["n"]] for k in range(len(cal["limits"]) + 1)]
             top = max(b for bs in per_bin for b in bs)
@@ -87,7 +88,7 @@ def _assert_factors(cal):
 def test_calibrate_pretrained_without_writing(tmp_path):
     from nh_operators.data import generate_dataset
     from nh_operators.solving import calibrate_pretrained, upper_quantile
-    from nh_operators.solving.calibration import SENSOR_PASSES
+    from nh_operators.solving.samples import SENSOR_PASSES
 
     path = WEIGHTS / "deeponet-alg1" / "calibration.json"
     before = path.read_bytes()
@@ -110,6 +111,21 @@ def test_calibrate_pretrained_without_writing(tmp_path):
                if c["n"])
     assert upper_quantile(np.arange(1.0, 1001.0), 0.5) == pytest.approx(500, rel=0.1)
     assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
+
+
+def test_a_phaseonet_is_calibrated_on_the_finer_grid_too():
+    """A network that answers at any time (refines) gets factors for its estimate on the
+    finer grid (calls of the whole orbit only); another does not."""
+    from nh_operators.data import generate_dataset
+    from nh_operators.solving import calibrate_pretrained, refines
+
+    assert refines("phaseonet-paper") and not refines("deeponet-paper")
+    data = generate_dataset(30, seed=9, progress=False, normalization="batch", pool=40)
+    cal = calibrate_pretrained("phaseonet-paper", data, n_timing=2, n_ood=12, write=False)
+    _assert_factors(cal)
+    assert len(cal["factors_fine"]) == len(cal["factors_sensors_fine"]) == 3
+    for fam in cal["families"].values():  # the finer grid's samples: the early calls' not
+        assert sum(c["n"] for c in fam["bins_fine"]) == sum(c["n"] for c in fam["bins"])
 
 
 def test_shipped_weights_stay_small():
