@@ -10,14 +10,14 @@ other, so a faster machine shifts both alike.
 
 import json
 import time
+import warnings
 
 import numpy as np
 
 from .._constants import SENSORS, TIMES
 from ..potentials import PHYSICAL_POTENTIALS
-from ..solvers import adaptive_solve
 from ..training import write_atomic
-from .auto_solve import _model, neural_solve
+from .auto_solve import _model, solve
 from .catalog import CALIBRATION
 from .costs import SHORT_HORIZON
 from .acceptance import CONFIDENCE, SENSOR_FAMILIES, bin_factors, calibrated, upper_quantile
@@ -57,20 +57,20 @@ _TIMINGS = {}
 def _classical_timings(key, pots):
     """The classical solve's median seconds at each of :data:`CLASSICAL_TOLS` on ``pots``
     (exact), their sensor values and three smooth formulas, on the whole grid and (the
-    ``_short`` fields) on its times up to :data:`~.costs.SHORT_HORIZON`; measured once
-    per process and dataset (``key``), as they do not depend on the network."""
+    ``_short`` fields) on its times up to :data:`~.costs.SHORT_HORIZON`, each a call of
+    :func:`~nh_operators.solve` as a user makes it; measured once per process and dataset
+    (``key``), as they do not depend on the network."""
     if key not in _TIMINGS:
         sensors = [pot.V(SENSORS) for pot in pots]
         formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
         short = TIMES[TIMES <= SHORT_HORIZON + 1e-12]
         _TIMINGS[key] = {
             field + suffix: [_median_seconds(
-                lambda pot: adaptive_solve(pot, information, times, tol, "rk4"), items)
+                lambda pot: solve(pot, times, tol=tol, method="rk4"), items)
                 for tol in CLASSICAL_TOLS]
-            for field, items, information in (
-                ("classical_seconds", pots, "exact V"),
-                ("classical_seconds_sensors", sensors, "sensors"),
-                ("classical_seconds_formula", formulas, "exact V"))
+            for field, items in (("classical_seconds", pots),
+                                 ("classical_seconds_sensors", sensors),
+                                 ("classical_seconds_formula", formulas))
             for suffix, times in (("", TIMES), ("_short", short))}
     return _TIMINGS[key]
 
@@ -202,8 +202,10 @@ def _timings(result, name, dataset, n_timing, n_batched=(1000, 300, 50)):
     from ..evaluation import device_info
 
     pots = [dataset.potential(i) for i in range(min(n_timing, len(dataset)))]
-    result["neural_seconds"] = _median_seconds(
-        lambda pot: neural_solve(name, pot, "exact V", TIMES), pots)
+    with warnings.catch_warnings():  # the network's whole call, as a user makes it
+        warnings.simplefilter("ignore")
+        result["neural_seconds"] = _median_seconds(
+            lambda pot: solve(pot, TIMES, method=name), pots)
     result["classical_tols"] = CLASSICAL_TOLS
     result.update(_classical_timings(dataset.checksum, tuple(pots)))
     with single_threaded():
