@@ -113,20 +113,8 @@ def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
     fails, every network but the two PhaseONets too dear to try."""
     from nh_operators.solving import auto_solve
 
-    for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])  # P = 1
-        cal["families"] = {fam: dict(f, estimate_quantiles=cal["estimate_quantiles"])
-                           for fam, f in cal["families"].items()}
-        cost = {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9}.get(name, 1e3)
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
-        if name == "phaseonet-paper":
-            cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
-                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
+    _calibrations(monkeypatch, {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9},
+                  failing=("phaseonet-paper",))
     ds = nh.generate_dataset(30, seed=77, progress=False)
     V, tol = np.asarray(ds.V), 1e-2
     many = nh.solve_many(V, nh.TIMES, tol=tol)
@@ -150,18 +138,7 @@ def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
     from nh_operators.solving import auto_solve, many
 
     monkeypatch.setattr(many, "PILOT", 8)
-    for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = (
-            1e-9 if name == "phaseonet-paper" else 1e3)
-        if name == "phaseonet-paper":
-            cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
-                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
+    _calibrations(monkeypatch, {"phaseonet-paper": 1e-9}, failing=("phaseonet-paper",))
     V = np.asarray(nh.generate_dataset(30, seed=78, progress=False, normalization="batch",
                                        pool=40).V)
     sol = nh.solve_many(V, nh.TIMES, tol=1e-2)
@@ -180,20 +157,8 @@ def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
     from nh_operators.solving import auto_solve, many
 
     monkeypatch.setattr(many, "PILOT", 8)
-    for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
-        cal["families"] = {fam: dict(f, estimate_quantiles=cal["estimate_quantiles"])
-                           for fam, f in cal["families"].items()}
-        cost = {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9}.get(name, 1e3)
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = cost
-        if name == "phaseonet-paper":
-            cal["factor"], cal["factors"] = 1e12, [1e12] * len(cal["factors"])
-            for key in ("factors_sensors", "factors_fine", "factors_sensors_fine"):
-                cal.pop(key, None)  # sensor values and the finer look too get the 1e12
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
+    _calibrations(monkeypatch, {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9},
+                  failing=("phaseonet-paper",))
     V = np.asarray(nh.generate_dataset(30, seed=77, progress=False).V)
     many_sol = nh.solve_many(V, nh.TIMES, tol=1e-2)
     first, second = many_sol.tried
@@ -212,17 +177,8 @@ def test_a_row_the_grid_estimate_refuses_is_estimated_again_on_the_finer_grid(mo
     every accepted answer meets tol against the sensor spline's trajectory."""
     from nh_operators.solving import auto_solve
 
-    for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = (
-            1e-9 if name == "phaseonet-paper" else 1e3)
-        if name == "phaseonet-paper":
-            for key in ("factors", "factors_sensors"):
-                cal[key] = [1e12] * len(cal[key])
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
+    _calibrations(monkeypatch, {"phaseonet-paper": 1e-9}, failing=("phaseonet-paper",),
+                  grid_only=True)
     V = np.asarray(nh.generate_dataset(30, seed=79, progress=False, normalization="batch",
                                        pool=40).V)
     tol = 1e-4
@@ -232,4 +188,29 @@ def test_a_row_the_grid_estimate_refuses_is_estimated_again_on_the_finer_grid(mo
     assert np.all(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"] <= tol)
     # the estimate returned is the finer look's, calibrated with its own factors
     assert np.all(sol.error_estimate[sol.neural] <= tol)
+    auto_solve._ranked.cache_clear()
+
+
+def _calibrations(monkeypatch, costs, failing=(), grid_only=False):
+    """Patch every shipped calibration: each network's estimate meets every tolerance on
+    its whole calibration set (share 1), costs ``costs[name]`` seconds (1e3 where not
+    given), and the estimates of the networks in ``failing`` always fail (factors 1e12;
+    ``grid_only``: only on the grid, their finer look keeps its factors)."""
+    from nh_operators.solving import auto_solve
+
+    for name in nh.available_pretrained():
+        model = auto_solve._model(name)
+        cal = dict(model.calibration)
+        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
+        cal["families"] = {fam: dict(f, estimate_quantiles=cal["estimate_quantiles"])
+                           for fam, f in cal["families"].items()}
+        cal["neural_seconds"] = cal["neural_seconds_batched"] = costs.get(name, 1e3)
+        if name in failing:
+            for key in ("factors", "factors_sensors", "factors_early", "factors_sensors_early"):
+                cal[key] = [1e12] * len(cal[key])
+            cal["factor"] = 1e12
+            if not grid_only:
+                for key in ("factors_fine", "factors_sensors_fine"):
+                    cal.pop(key, None)
+        monkeypatch.setattr(model, "calibration", cal)
     auto_solve._ranked.cache_clear()
