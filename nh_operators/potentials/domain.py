@@ -31,7 +31,8 @@ class OutOfDomainWarning(UserWarning):
 #: each wall, -V'(0) and V'(1) from the cubic through the four sensors there, must point
 #: inward and exceed it (:func:`wall_forces`). The curve leaves each wall along its
 #: first control segment, which may be nearly flat, so only 0 is guaranteed; empirical:
-#: 0.42 at least on 100,000 potentials of each generator, divided by 1.25 (the slack of
+#: 0.42 at least on 100,000 potentials of each generator
+#: (``benchmarks/promise/domain_walls.py``), divided by 1.25 (the slack of
 #: :func:`fit_domain`). A wall that does not push inward is no wall: from rest there, a
 #: particle stays or leaves [0, 1], and no training trajectory did.
 GENERATOR_DOMAIN = {"V_range": (-V0, V0), "max_slope": 80.0,
@@ -185,8 +186,8 @@ def fit_domain(V, *, slack=0.25, source="its training data"):
     ``slack`` × 0.1 of its width on each side, the slope and curvature bounds by a
     factor 1 + ``slack``, ``min_V_at_most`` (the highest minimum of a row) by
     ``slack`` × its distance to V0, capped at V0, and ``min_wall_force`` (the weakest
-    inward wall force, :func:`wall_forces`, never below 0) divided by 1 + ``slack``. A network trained on these rows has
-    seen nothing beyond them.
+    inward wall force, :func:`wall_forces`, never below 0) divided by 1 + ``slack``. A
+    network trained on these rows has seen nothing beyond them.
 
     Args:
         V: the training rows' sensor values, shape (N, 100), N ≥ 1.

@@ -16,9 +16,10 @@ calibrated, ``factors_sensors`` (the families whose inputs were sensor values, f
 every distribution tried). A calibration without them (an older file) gives sensor
 values the ``factors`` of every family, as before.
 
-Calls whose latest time is at most :data:`EARLY_HORIZON` are bounded apart, by ``factors_early`` and ``factors_sensors_early``: there the estimate can miss
-the error by two orders of magnitude (the first grid steps of a prediction are not
-averaged over the orbit), and a factor for them would waste every other call.
+Calls whose latest time is at most :data:`EARLY_HORIZON` are bounded apart, by
+``factors_early`` and ``factors_sensors_early``: there the estimate can miss the error
+by two orders of magnitude (the first grid steps of a prediction are not averaged over
+the orbit), and a factor for them would waste every other call.
 """
 
 import numpy as np
@@ -27,8 +28,8 @@ __all__ = ["SENSOR_FAMILIES", "EARLY_HORIZON", "upper_quantile", "bin_factors", 
            "acceptance_rate", "cautious_acceptance_rate"]
 
 #: A call whose latest asked time is at most this (a quarter of the grid) is an early
-#: call. Measured on phaseonet-paper (2,000 potentials per family): true / raw reached
-#: 280 for calls up to t = 0.1, 7 up to 0.5, 3.3 beyond.
+#: call. On phaseonet-paper, true / raw reached 280 for calls up to t = 0.1, 7 up to 0.5,
+#: 3–5 beyond (``benchmarks/promise/estimate_horizons.py``).
 EARLY_HORIZON = 0.5
 
 #: The confidence of the bound on a quantile (:func:`upper_quantile`).

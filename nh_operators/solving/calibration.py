@@ -110,7 +110,8 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
     Returns:
         the calibration dict: ``limits``, ``factors`` (one per bin, over the families
         of exact potentials: :func:`bin_factors`), ``factor`` (the first bin's),
-        ``factors_sensors`` (the same over the families of sensor values), ``quantile``,
+        ``factors_sensors`` (the same over the families of sensor values), each also
+        ``_early`` (early calls) and, for a network that refines, ``_fine``, ``quantile``,
         ``confidence``, ``families`` (per family: drawn, admitted, median and largest
         true / raw, and per bin the count and the bounded quantile),
         ``estimate_over_true_median`` (in distribution),
@@ -164,8 +165,9 @@ def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
             factors = bin_factors((f for fam, f in families.items() if pick(fam)),
                                   "bins" + calls)
             if factors is None:
-                raise ValueError(f"{name}: no calibration input lies inside the network's "
-                                 "domain")
+                raise ValueError(f"{name}: no calibration sample for "
+                                 f"factors{suffix}{calls} (no input inside the network's "
+                                 "domain, or too few calls of that kind)")
             result["factors" + suffix + calls] = factors
     result["factor"] = result["factors"][0]
     true, raw, _, early, *_ = fams["in distribution"]

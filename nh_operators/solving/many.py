@@ -3,15 +3,17 @@
 A scene (an animation, a parameter sweep, an ensemble) is N rows, each a potential with
 its own starting state (q0, p0) and its own times. :func:`solve_many` chooses per row,
 as :func:`~nh_operators.solve` would for that row alone: with ``method="auto"`` and a
-tolerance, a shipped network is tried on the rows where :func:`solve` would try it (times
-in [0, 2], sensor values inside its domain; the rows at (0, 0) go to the networks trained
-at rest, the others to the networks that read a starting state), each row going to
-the cheapest network whose domain holds it (and on to the next where its estimate fails;
-from 2 · :data:`PILOT` rows on, every candidate first answers the same :data:`PILOT` rows,
-and their results there choose which networks go on and in which order), its prediction
-kept where its own estimate meets the tolerance, and every other row is solved classically — all classical rows together, in one parallel numba kernel per
-substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a progress
-bar when N is large. A classical row gives the same numbers as :func:`solve` on that row.
+tolerance, a shipped network is tried on the rows where :func:`solve` would try it
+(times in [0, 2], sensor values inside its domain; the rows at (0, 0) go to the networks
+trained at rest, the others to the networks that read a starting state), each row going
+to the cheapest network whose domain holds it (and on to the next where its estimate
+fails; from 2 · :data:`PILOT` rows on, every candidate first answers the same
+:data:`PILOT` rows, and their results there choose which networks go on and in which
+order), its prediction kept where its own estimate meets the tolerance, and every other
+row is solved classically — all classical rows together, in one parallel numba kernel
+per substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a
+progress bar when N is large. A classical row gives the same numbers as :func:`solve` on
+that row.
 """
 
 import functools
@@ -205,23 +207,23 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
         if method == "auto" and free.sum() >= 2 * PILOT:
             # every candidate answers the same spread-out pilot rows; their results there
             # choose which networks go on, in which order (:func:`_pilot_order`)
-            pilot[np.flatnonzero(free)[np.linspace(0, free.sum() - 1, PILOT).astype(int)]] = True
+            spread = np.linspace(0, free.sum() - 1, PILOT).astype(np.int64)
+            pilot[np.flatnonzero(free)[spread]] = True
             results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
                        for name in names}  # (rows, q, p, estimate, accepted)
             costs = {name: (_classical_seconds(_calibration(name), tol, kind, True,
                                                _horizon_key(t)),
                             _neural_seconds(_calibration(name), True)) for name in names}
             order = _pilot_order(results, costs)
-            for name in order:
-                runs.stop_refining(name, costs[name])
             for name in order:  # the pilot rows, each answered by the first that accepts
                 runs.keep(name, *results[name], tried)
+                runs.stop_refining(name, costs[name])
             for name in names:
                 part, take = results[name][0], results[name][4]
                 if name not in order and part.size:
                     _record(tried, name, part.size, 0)
                     tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
-                                                f"{part.size} rows: not worth its cost")
+                                            f"{part.size} rows: not worth its cost")
         for name in order:
             part = np.flatnonzero(free & eligible[name] & ~pilot)
             if part.size:

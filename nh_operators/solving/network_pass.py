@@ -100,7 +100,6 @@ class _NetworkRuns:
         _record(tried, name, rows.size, take.sum())
 
 
-
 def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0, target=np.inf,
                   counts=None):
     """Predict rows ``rows`` with shipped model ``name`` from their states (q0s, p0s:
@@ -119,15 +118,9 @@ def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0, target=np.inf,
     q, p = predict(model.net, network_input(name, V[rows], q0s, p0s), TIMES)
 
     mine = src.subset(rows)  # the rows' coefficients, taken once
-
-    def values(x):
-        return mine.values_at(x)
-
-    def slopes(x):
-        return -mine.forces_at(x)
-
     t = t if t.ndim == 1 else t[rows]
-    qa, pa, raw = estimate_at(q, p, values, slopes, t, q0=q0s, p0=p0s)
+    qa, pa, raw = estimate_at(q, p, mine.values_at, lambda x: -mine.forces_at(x), t, q0=q0s,
+                              p0=p0s)
     early = np.broadcast_to(t.max(axis=-1) <= EARLY_HORIZON, raw.shape)  # per row
     estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind, early),
                         np.inf)

@@ -72,7 +72,9 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
         qa, pa, r = estimate_at(q, p, *force, t, **state)
         true.append(loss_per_sample(qa, pa, q_ref, p_ref)["L_tot"])
         raw.append(r)
-        qa, pa, r = (fine_estimate(name, V[rows], *force, t, **state) if fine
+        # the finer look serves calls of the whole orbit only (.refine)
+        qa, pa, r = (fine_estimate(name, V[rows], *force, t, **state)
+                     if fine and t.max() > EARLY_HORIZON
                      else (qa, pa, np.full(rows.size, np.nan)))
         true_fine.append(loss_per_sample(qa, pa, q_ref, p_ref)["L_tot"])
         raw_fine.append(r)
@@ -105,13 +107,14 @@ def _ood_ratios(name, n, seed, rng, states=False):
         ref = reference_solve(pot, t, **state)
         true.append(float(loss_per_sample(q, p, *ref)["L_tot"]))
         raw.append(r)
-        if fine:
+        fine_call = fine and t.max() > EARLY_HORIZON  # the finer look's calls (.refine)
+        if fine_call:
             force = (_rows(pot.V), _rows(pot.dV))
             q, p, r = (a[0] for a in fine_estimate(name, pot.V(SENSORS)[None], *force, t,
                                                    **state))
             r = float(r) if np.isfinite(r) else np.inf
-        true_fine.append(float(loss_per_sample(q, p, *ref)["L_tot"]) if fine else np.nan)
-        raw_fine.append(r if fine else np.nan)
+        true_fine.append(float(loss_per_sample(q, p, *ref)["L_tot"]) if fine_call else np.nan)
+        raw_fine.append(r if fine_call else np.nan)
     return (np.array(true), np.array(raw), n, np.array(early, dtype=bool),
             np.array(true_fine), np.array(raw_fine))
 
@@ -121,7 +124,8 @@ def calibration_families(name, dataset, *, other=None, n_ood=600, ood_seed=2719,
     """The samples that calibrate model ``name``: {family: (true, raw, drawn, early,
     true_fine, raw_fine)}, ``early`` marking the samples of calls whose latest time is at
     most :data:`EARLY_HORIZON`, ``*_fine`` the same on the finer grid of
-    :mod:`~nh_operators.solving.refine` (NaN for a network that does not refine).
+    :mod:`~nh_operators.solving.refine` (NaN for early calls and for a network that does
+    not refine).
 
     Exact potentials: ``in distribution`` (the dataset's), ``other distribution``
     (``other``, a batched B-spline of the other generator, if given), ``out of
