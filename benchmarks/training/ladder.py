@@ -65,19 +65,22 @@ def _size_args(model, size, plan):
     return []
 
 
-def plan_runs(plan, seeds=None):
+def plan_runs(plan, seeds=None, sizes=None, combos=("reference", "ours")):
     """The runs of a plan: dicts with name, seed, group and the train arguments;
-    ``seeds`` replaces the plan's seeds for every combination."""
+    ``seeds`` replaces the plan's seeds for every combination, ``sizes`` (a dict
+    architecture -> sizes) the plan's sizes of those architectures, ``combos`` keeps
+    only these combinations."""
     preset = "paper" if plan == "gpu" else "cpu"
-    sizes = {"gpu": {"varonet": (128, 256, 512), "mambonet": (32, 64, 128), "traonet": (64,)},
-             "cpu": {"varonet": (32, 64, 128), "mambonet": (16, 32, 64),
-                     "traonet": (32,)}}[plan]
+    sizes = dict({"gpu": {"varonet": (128, 256, 512), "mambonet": (32, 64, 128),
+                          "traonet": (64,)},
+                  "cpu": {"varonet": (32, 64, 128), "mambonet": (16, 32, 64),
+                          "traonet": (32,)}}[plan], **(sizes or {}))
     plan_seeds = {"reference": (0, 1) if plan == "gpu" else (0,), "ours": (0,)}
     if seeds is not None:
         plan_seeds = {"reference": tuple(seeds), "ours": tuple(seeds)}
     runs = []
     for model, model_sizes in sizes.items():
-        for combo in ("reference", "ours"):
+        for combo in combos:
             for size in model_sizes:
                 for seed in plan_seeds[combo] if model != "traonet" else (0,):
                     tag = "ref" if combo == "reference" else "ours"
@@ -91,23 +94,27 @@ def plan_runs(plan, seeds=None):
     return runs
 
 
-def print_params(runs):
-    """Parameter counts of the plan's networks (one line per name)."""
+def run_params(run):
+    """The parameter count of a run's network (built from its train arguments)."""
     from nh_operators.models import build_model
 
+    args = run["args"]
+    model, preset, variant = (args[args.index(flag) + 1]
+                              for flag in ("--model", "--preset", "--variant"))
+    arch = dict(a.split("=") for a, flag in zip(args[1:], args) if flag == "--arch")
+    arch = {k: int(v) if v.isdigit() else {"True": True, "False": False}.get(v, v)
+            for k, v in arch.items()}
+    net = build_model(model, preset=preset, variant=variant, **arch)
+    return sum(p.numel() for p in net.parameters())
+
+
+def print_params(runs):
+    """Parameter counts of the plan's networks (one line per name)."""
     seen = set()
     for run in runs:
-        if run["name"] in seen:
-            continue
-        seen.add(run["name"])
-        args = run["args"]
-        model, preset, variant = (args[args.index(flag) + 1]
-                                  for flag in ("--model", "--preset", "--variant"))
-        arch = dict(a.split("=") for a, flag in zip(args[1:], args) if flag == "--arch")
-        arch = {k: int(v) if v.isdigit() else {"True": True, "False": False}.get(v, v)
-                for k, v in arch.items()}
-        net = build_model(model, preset=preset, variant=variant, **arch)
-        print(f"{run['name']}: {sum(p.numel() for p in net.parameters()):,} parameters")
+        if run["name"] not in seen:
+            seen.add(run["name"])
+            print(f"{run['name']}: {run_params(run):,} parameters")
 
 
 def launch(runs, out, extra, jobs, env):
@@ -141,16 +148,31 @@ def main():
     ap.add_argument("--only", nargs="*", help="run only these names (NAME or NAME-sSEED)")
     ap.add_argument("--seeds", type=int, nargs="+",
                     help="seeds of every run (default: the plan's, see above)")
+    ap.add_argument("--sizes", nargs="+", default=[], metavar="MODEL=S1,S2,...",
+                    help="replace the plan's sizes of an architecture, e.g. mambonet=8,16,32")
+    ap.add_argument("--combos", nargs="+", choices=("reference", "ours"),
+                    default=("reference", "ours"), help="combinations to run (default both)")
     ap.add_argument("--params", action="store_true",
                     help="print each run's parameter count and stop (nothing is trained)")
     args = ap.parse_args()
+    sizes = {}
+    for item in args.sizes:
+        model, _, values = item.partition("=")
+        try:
+            sizes[model] = tuple(int(v) for v in values.split(","))
+        except ValueError:
+            ap.error(f"--sizes {item!r}: expected MODEL=S1,S2,... with integer sizes")
+        if model not in OURS:
+            ap.error(f"--sizes {item!r}: unknown architecture {model!r} "
+                     f"(one of {', '.join(OURS)})")
+    plan = dict(seeds=args.seeds, sizes=sizes, combos=tuple(args.combos))
     if args.params:
-        return print_params(plan_runs(args.plan, args.seeds))
+        return print_params(plan_runs(args.plan, **plan))
 
     out = Path(args.out)
     (out / "logs").mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
-    runs = plan_runs(args.plan, args.seeds)
+    runs = plan_runs(args.plan, **plan)
     if args.only:
         runs = [r for r in runs if r["name"] in args.only
                 or f"{r['name']}-s{r['seed']}" in args.only]
