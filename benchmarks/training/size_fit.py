@@ -83,6 +83,8 @@ def main():
                     help="the wall clock of the equal-time table")
     ap.add_argument("--cross", default="traonet",
                     help="architecture whose validation loss the fits are crossed with")
+    ap.add_argument("--at", type=int, nargs="*", default=[], metavar="PARAMS",
+                    help="also print every fit's value (95 %% interval) at these parameter counts")
     args = ap.parse_args()
     folder = Path(args.ladder)
     for need in ("plan.json", "ablation.json"):
@@ -134,6 +136,7 @@ def main():
           f"paper's size (95 % interval) | paper's parameters | {args.cross} of the same "
           f"combination | the fit reaches it at |")
     print("|" + "---|" * 8)
+    fits = {}
     for group, runs in groups.items():
         sizes = sorted({r["params"] for r in runs})
         if len(sizes) < 3 or group.startswith(args.cross + "-"):
@@ -145,8 +148,12 @@ def main():
         slopes = [line_fit([math.log10(n) for n in sizes], pick)[1]
                   for pick in itertools.product(*by_size)]
         x0 = math.log10(runs[0]["paper_params"])
-        half = stats.t.ppf(0.975, len(x) - 2) * s * math.sqrt(1 / len(x) + (x0 - xm) ** 2 / sxx)
-        y0 = a + b * x0
+        def interval(x0):
+            return stats.t.ppf(0.975, len(x) - 2) * s * math.sqrt(1 / len(x)
+                                                                + (x0 - xm) ** 2 / sxx)
+
+        half, y0 = interval(x0), a + b * x0
+        fits[group] = (a, b, interval)
         cross = level(group)
         reach = 10 ** ((cross - a) / b) if b < 0 and math.isfinite(cross) else math.nan
         print(f"| {group} | {len(runs)} | {b:.2f} ± {se:.2f} | {min(slopes):.2f} to "
@@ -154,6 +161,12 @@ def main():
               f"{10 ** (y0 + half):.1e}) | {runs[0]['paper_params']:,} | {10 ** cross:.2e} | "
               + (f"{reach:,.0f} parameters |" if math.isfinite(reach)
                  else "– (no fall with size) |" if b >= 0 else "– (no such run) |"))
+
+    for n in args.at:
+        print(f"\nEvery fit at {n:,} parameters (95 % interval of the line):\n")
+        for group, (a, b, interval) in fits.items():
+            y, half = a + b * math.log10(n), interval(math.log10(n))
+            print(f"- {group}: {10 ** y:.2e} ({10 ** (y - half):.2e}–{10 ** (y + half):.2e})")
 
 
 if __name__ == "__main__":
