@@ -68,6 +68,11 @@ def line_fit(x, y):
     return a, b, s / math.sqrt(sxx), s, xm, sxx
 
 
+def half_width(x0, n, s, xm, sxx):
+    """Half width of the fitted line's 95 % interval at x0 (n points, Student t)."""
+    return stats.t.ppf(0.975, n - 2) * s * math.sqrt(1 / n + (x0 - xm) ** 2 / sxx)
+
+
 def at_minutes(hist, minutes):
     """(validation loss, epoch) at the last epoch finished within ``minutes``."""
     done = [i for i, sec in enumerate(hist["seconds"]) if sec <= 60 * minutes]
@@ -147,13 +152,9 @@ def main():
         by_size = [[math.log10(r["val"]) for r in runs if r["params"] == n] for n in sizes]
         slopes = [line_fit([math.log10(n) for n in sizes], pick)[1]
                   for pick in itertools.product(*by_size)]
+        fits[group] = (a, b, (len(x), s, xm, sxx))
         x0 = math.log10(runs[0]["paper_params"])
-        def interval(x0):
-            return stats.t.ppf(0.975, len(x) - 2) * s * math.sqrt(1 / len(x)
-                                                                + (x0 - xm) ** 2 / sxx)
-
-        half, y0 = interval(x0), a + b * x0
-        fits[group] = (a, b, interval)
+        half, y0 = half_width(x0, len(x), s, xm, sxx), a + b * x0
         cross = level(group)
         reach = 10 ** ((cross - a) / b) if b < 0 and math.isfinite(cross) else math.nan
         print(f"| {group} | {len(runs)} | {b:.2f} ± {se:.2f} | {min(slopes):.2f} to "
@@ -164,8 +165,8 @@ def main():
 
     for n in args.at:
         print(f"\nEvery fit at {n:,} parameters (95 % interval of the line):\n")
-        for group, (a, b, interval) in fits.items():
-            y, half = a + b * math.log10(n), interval(math.log10(n))
+        for group, (a, b, spread) in fits.items():
+            y, half = a + b * math.log10(n), half_width(math.log10(n), *spread)
             print(f"- {group}: {10 ** y:.2e} ({10 ** (y - half):.2e}–{10 ** (y + half):.2e})")
 
 
