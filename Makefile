@@ -8,7 +8,7 @@ BIN = $(VENV)/bin
 $(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -c constraints.txt -e ".[test,docs]"
+	$(BIN)/python -m pip install -q -c constraints.txt -e ".[fno,tune,test,docs]"
 	touch $@
 
 demo: $(BIN)/.installed  ## classical solvers on the five physical potentials: table + figure

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import nh_operators as nh
-from nh_operators.data import PRESETS, generate_dataset
+from nh_operators.data import DATASET_PRESETS as PRESETS, generate_dataset
 from nh_operators.evaluation import (
     EvaluationSettings,
     evaluate_report,

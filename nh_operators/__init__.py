@@ -13,7 +13,6 @@ environment (without importing DeepXDE or writing a config file in the home fold
 each wing loads when a name from it is first used, so a classical solve never loads torch.
 """
 
-from ._backend import ensure_pytorch_backend as _ensure_pytorch_backend  # noqa: F401
 from ._backend import select_pytorch_backend as _select_pytorch_backend
 
 _select_pytorch_backend()
@@ -38,3 +37,4 @@ __getattr__, __dir__, _names = _attach(__name__, {
                  "adjusted_infimum_lr", "load_model", "train"],
 })
 __all__ = ["__version__", "V0", "SENSORS", "TIMES", *_names]
+del _attach, _names, _select_pytorch_backend

@@ -103,3 +103,29 @@ def test_a_classical_predict_loads_no_torch(tmp_path):
     res = _run(code, tmp_path)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_top_level_exposes_no_private_name():
+    import nh_operators as nh
+
+    assert [n for n in nh.__all__ if n.startswith("_") and not n.startswith("__")] == []
+    # helpers used while importing are not left on the package
+    for name in ("_ensure_pytorch_backend", "_select_pytorch_backend", "_attach", "_names"):
+        assert not hasattr(nh, name), name
+
+
+def test_optional_dependency_error_names_the_extra(monkeypatch):
+    from nh_operators import _extras
+
+    def missing(name):
+        err = ModuleNotFoundError(f"No module named {name!r}")
+        err.name = name
+        raise err
+
+    monkeypatch.setattr(_extras.importlib, "import_module", missing)
+    with pytest.raises(ImportError, match=r"pip install 'nh-operators\[fno\]'"):
+        _extras.require("neuralop.models")
+    with pytest.raises(ImportError, match=r"nh-operators\[tune\]"):
+        _extras.require("optuna")
+    with pytest.raises(ValueError, match="not an optional dependency"):
+        _extras.require("numpy")

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from nh_operators.data import PRESETS, generate_dataset, load_dataset
+from nh_operators.data import DATASET_PRESETS as PRESETS, generate_dataset, load_dataset
 from nh_operators.evaluation import dop853_sensors, loss_per_sample
 from nh_operators.solvers import integrate, integrate_sensors, paper_rk4
 

@@ -27,7 +27,8 @@ import nh_operators as nh
 from nh_operators.solving.catalog import WEIGHTS
 from nh_operators.training import load_model
 
-nh._ensure_pytorch_backend()
+from nh_operators._backend import ensure_pytorch_backend  # noqa: E402
+ensure_pytorch_backend()
 
 
 def step_time(net, V, t, y, repeats):

@@ -21,7 +21,7 @@ import time
 
 import numba
 
-from nh_operators.data import PRESETS, generate_dataset
+from nh_operators.data import DATASET_PRESETS as PRESETS, generate_dataset
 from nh_operators.evaluation import cpu_name
 
 SEED = PRESETS["standard"]["seed"]

@@ -21,7 +21,8 @@ import torch
 import nh_operators as nh
 from nh_operators.models import cast_network
 
-dde = nh._ensure_pytorch_backend()
+from nh_operators._backend import ensure_pytorch_backend  # noqa: E402
+dde = ensure_pytorch_backend()
 
 
 def _sync(device):

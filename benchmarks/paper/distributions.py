@@ -22,7 +22,7 @@ import warnings
 
 import numpy as np
 
-from nh_operators.data import PRESETS, generate_dataset, load_dataset, preset_kwargs
+from nh_operators.data import DATASET_PRESETS as PRESETS, generate_dataset, load_dataset, preset_kwargs
 from nh_operators.evaluation import cpu_name, loss_per_sample
 from nh_operators.solvers import ResolutionWarning, integrate, integrate_sensors, paper_rk4
 

@@ -3,28 +3,11 @@
 import sys
 import time
 
+from .._dataset_presets import DATASET_PRESETS
 from ._options import nonnegative_int, positive_int
 
-#: The data wing's PRESETS, repeated here so that parsing and ``--help`` do not import
-#: the library (tests/cli checks that they agree).
-PRESETS = {
-    "alg1-standard": {"size": 10_000, "seed": 8407},
-    "alg1-extended": {"size": 100_000, "seed": 8407},
-    "alg1-test": {"size": 4_000, "seed": 42},
-    "paper-standard": {"size": 10_000, "seed": 8407, "normalization": "batch", "pool": 12_500},
-    "paper-extended": {"size": 100_000, "seed": 8407, "normalization": "batch",
-                       "pool": 125_000},
-    "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
-                   "skip": 1_000},
-}
-for _name in ("alg1-standard", "alg1-extended", "alg1-test", "paper-standard",
-              "paper-extended", "paper-test"):
-    # the same potentials, each from its own bounded state stratified by energy
-    _family, _split = _name.split("-")
-    PRESETS[f"{_family}-states-{_split}"] = {**PRESETS[_name], "states": "energy"}
-PRESETS["standard"] = PRESETS["alg1-standard"]
-PRESETS["extended"] = PRESETS["alg1-extended"]
-PRESETS["test"] = PRESETS["alg1-test"]
+#: The dataset presets (a table without torch, shared with the data wing).
+PRESETS = DATASET_PRESETS  # the choices of --preset
 
 
 def _plan(args):

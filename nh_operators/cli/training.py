@@ -68,11 +68,13 @@ def _interrupted(args):
 
 
 def _tune(args):
-    import optuna
     import torch
+
+    from .._extras import require
 
     from ..training import best_config, study_name, tune, tuned_train_kwargs
 
+    optuna = require("optuna")
     optuna.logging.set_verbosity(optuna.logging.WARNING)  # tune prints a line per trial
     if args.threads:
         torch.set_num_threads(args.threads)

@@ -8,7 +8,7 @@ from .._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_h5": ["dataset_attrs", "partial_progress"],
-    "generate": ["PRESETS", "Dataset", "check_output_path", "generate_dataset",
+    "generate": ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset",
                  "label_potentials", "load_dataset", "preset_kwargs"],
     "operator_data": ["OperatorData"],
     "rows": ["H5Rows", "MemoryRows", "Rows", "open_rows", "split_indices"],

@@ -10,37 +10,15 @@ import os
 import numpy as np
 
 from .._constants import SENSORS, TIMES, V0
+from .._dataset_presets import DATASET_PRESETS
 from .._version import __version__
 from ..potentials import BoundedPotential, BoundedPotentialSpace
 from ._h5 import read_dataset, write_streamed
 from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, _Source, label_potentials
 
-__all__ = ["PRESETS", "preset_kwargs", "Dataset", "generate_dataset", "label_potentials", "load_dataset",
+__all__ = ["DATASET_PRESETS", "preset_kwargs", "Dataset", "generate_dataset", "label_potentials", "load_dataset",
            "check_output_path"]
 
-#: Named datasets: size, seed and generator options. ``alg1-*`` (also called
-#: ``standard``, ``extended``, ``test``): the paper's Algorithm 1 as printed, each
-#: potential normalised on its own. ``paper-*``: the distribution the paper's tables were
-#: made on, its reference code's (the GRF values of 1.25 n candidates normalised together;
-#: its test set is the last 4,000 of 5,000 drawn from 6,250 candidates). Same seeds.
-PRESETS = {
-    "alg1-standard": {"size": 10_000, "seed": 8407},
-    "alg1-extended": {"size": 100_000, "seed": 8407},
-    "alg1-test": {"size": 4_000, "seed": 42},
-    "paper-standard": {"size": 10_000, "seed": 8407, "normalization": "batch", "pool": 12_500},
-    "paper-extended": {"size": 100_000, "seed": 8407, "normalization": "batch",
-                       "pool": 125_000},
-    "paper-test": {"size": 4_000, "seed": 42, "normalization": "batch", "pool": 6_250,
-                   "skip": 1_000},
-}
-for _name in ("alg1-standard", "alg1-extended", "alg1-test", "paper-standard",
-              "paper-extended", "paper-test"):
-    # the same potentials, each from its own bounded state stratified by energy
-    _family, _split = _name.split("-")
-    PRESETS[f"{_family}-states-{_split}"] = {**PRESETS[_name], "states": "energy"}
-PRESETS["standard"] = PRESETS["alg1-standard"]  # the names of earlier releases
-PRESETS["extended"] = PRESETS["alg1-extended"]
-PRESETS["test"] = PRESETS["alg1-test"]
 
 
 def preset_kwargs(name):
@@ -50,9 +28,9 @@ def preset_kwargs(name):
         >>> preset_kwargs("paper-test")
         {'normalization': 'batch', 'pool': 6250, 'skip': 1000}
     """
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; choose from {sorted(PRESETS)}")
-    return {k: v for k, v in PRESETS[name].items() if k not in ("size", "seed")}
+    if name not in DATASET_PRESETS:
+        raise ValueError(f"unknown preset {name!r}; choose from {sorted(DATASET_PRESETS)}")
+    return {k: v for k, v in DATASET_PRESETS[name].items() if k not in ("size", "seed")}
 
 class Dataset:
     """Potentials at the sensors, exact labels, and what rebuilds each true potential.

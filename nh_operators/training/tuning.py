@@ -29,9 +29,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import optuna
-from optuna.trial import TrialState
 
+from .._extras import require
 from .config import TrainConfig, TrainingDiverged
 from .trainer import train
 from .tuning_spaces import (
@@ -54,6 +53,9 @@ from .tuning_study import (
     study_name,
     write_best_config,
 )
+
+optuna = require("optuna")
+TrialState = optuna.trial.TrialState
 
 __all__ = ["DEFAULT_STORAGE", "SEARCH_SPACES", "STAGES", "TrialReporter", "best_config",
            "get_space", "load_tuned_config", "open_storage", "open_study", "study_name",

@@ -11,13 +11,14 @@ import time
 import warnings
 from pathlib import Path
 
-import optuna
-from optuna.trial import TrialState
-
+from .._extras import require
 from .._version import __version__
 from ..models import training_defaults
 from .checkpoint import write_atomic
 from .tuning_spaces import SEARCH_SPACES, get_space, stage_params
+
+optuna = require("optuna")
+TrialState = optuna.trial.TrialState
 
 __all__ = ["DEFAULT_STORAGE", "best_config", "open_storage", "open_study", "study_name",
            "write_best_config"]

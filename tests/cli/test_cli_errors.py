@@ -14,7 +14,7 @@ import nh_operators as nh
 from nh_operators.cli import main
 from nh_operators.cli.generate import PRESETS as CLI_PRESETS
 from nh_operators.cli.training import MODEL_NAMES
-from nh_operators.data import PRESETS, generate_dataset
+from nh_operators.data import DATASET_PRESETS as PRESETS, generate_dataset
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ from scipy.integrate import solve_ivp
 
 import nh_operators as nh
 from nh_operators.data import (
-    PRESETS,
+    DATASET_PRESETS as PRESETS,
     Dataset,
     generate_dataset,
     label_potentials,

@@ -12,7 +12,8 @@ import torch
 
 import nh_operators as nh
 
-dde = nh._ensure_pytorch_backend()
+from nh_operators._backend import ensure_pytorch_backend  # noqa: E402
+dde = ensure_pytorch_backend()
 
 
 def antiderivative_data(n, seed):

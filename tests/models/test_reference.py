@@ -20,7 +20,8 @@ from nh_operators.models import (REFERENCE_MODELS, VARIANTS, MambONet, Reference
 from nh_operators.models._reference_layers import PositionalEncoding
 from nh_operators.models.presets import REFERENCE_ARCHITECTURES
 
-dde = nh._ensure_pytorch_backend()
+from nh_operators._backend import ensure_pytorch_backend  # noqa: E402
+dde = ensure_pytorch_backend()
 
 DATA = Path(__file__).parent / "data"
 FIXTURE = np.load(DATA / "reference-5c4cbd8-small.npz")
