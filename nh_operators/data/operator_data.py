@@ -11,6 +11,9 @@ validation.
   column (DeepXDE sums the columns for the gradient and reports them separately):
   the paper's loss, Σ over the 2M outputs of the squared error plus β · KL, divided
   by 2M to match DeepXDE's mean-squared data loss;
+* with ``physics`` (a :class:`~nh_operators.data.PhysicsTerms`), the training loss is
+  the residual of Hamilton's equations (plus optional energy and label terms, the
+  labels kept on ``physics.label_fraction`` of the rows) instead of the data loss;
 * :meth:`validation_loss` evaluates the whole validation set in batches, while
   :meth:`test` (which DeepXDE evaluates in one forward) returns a small monitor batch.
 """
@@ -22,6 +25,7 @@ import torch
 
 from .._backend import ensure_pytorch_backend
 from ..models import batched_forward
+from .physics_loss import PhysicsTerms
 
 dde = ensure_pytorch_backend()
 
@@ -39,6 +43,11 @@ class OperatorData(dde.data.TripleCartesianProd):
         beta: weight β of a network's KL term (VaRONet), default 0.
         shuffle_seed: seed of the batch order.
         monitor_size: validation samples DeepXDE's own display evaluates (default 100).
+        physics: a :class:`~nh_operators.data.PhysicsTerms` for physics-informed
+            training (default None: the data loss). The network must be pointwise in
+            time (``query_coupled`` False) and carry the starting state as an output
+            transform (:func:`~nh_operators.data.state_transform`). Unlabelled rows'
+            targets become NaN.
 
     Raises:
         TypeError: for a Dataset (use ``ds.to_deepxde()``) or missing arrays.
@@ -54,13 +63,19 @@ class OperatorData(dde.data.TripleCartesianProd):
     """
 
     def __init__(self, X_train, y_train=None, X_test=None, y_test=None, *, beta=0.0,
-                 shuffle_seed=0, monitor_size=100):
+                 shuffle_seed=0, monitor_size=100, physics=None):
         if hasattr(X_train, "to_deepxde"):
             raise TypeError("OperatorData takes arrays; a Dataset (generate_dataset, "
                             "load_dataset) makes its own: ds.to_deepxde()")
         if y_train is None or X_test is None or y_test is None:
             raise TypeError("OperatorData needs X_train, y_train, X_test and y_test")
+        if physics is not None:
+            if not isinstance(physics, PhysicsTerms):
+                raise TypeError(f"physics must be a PhysicsTerms, got {type(physics).__name__}")
+            y_train = np.array(y_train, dtype=np.result_type(y_train, np.float32))
+            y_train[~physics.labelled(len(y_train))] = np.nan
         super().__init__(X_train, y_train, X_test, y_test)
+        self.physics = physics
         if beta < 0:
             raise ValueError(f"beta must be non-negative, got {beta}")
         self.beta = float(beta)
@@ -95,7 +110,13 @@ class OperatorData(dde.data.TripleCartesianProd):
         epoch, k = divmod(self.cursor, steps)
         idx = self._permutation(epoch)[k * batch_size:(k + 1) * batch_size]
         self._record = True
-        return (self.train_x[0][idx], self.train_x[1]), self.train_y[idx]
+        return (self.train_x[0][idx], self._trunk()), self.train_y[idx]
+
+    def _trunk(self):
+        """The query times of this iteration (with physics: plus its extra times)."""
+        if self.physics is None:
+            return self.train_x[1]
+        return self.physics.times(self.train_x[1], self.cursor)
 
     def advance(self):
         """Move to the next batch; called once per training iteration."""
@@ -105,24 +126,28 @@ class OperatorData(dde.data.TripleCartesianProd):
         n = min(self.monitor_size, len(self.test_x[0]))
         return (self.test_x[0][:n], self.test_x[1]), self.test_y[:n]
 
-    def _losses(self, targets, outputs, loss_fn, model):
-        data = loss_fn(targets, outputs)
+    def _losses(self, targets, outputs, loss_fn, model, inputs=None):
+        if self.physics is not None and inputs is not None:
+            losses = self.physics.losses(inputs, outputs, targets,
+                                         getattr(model.net, "n_sensors", inputs[0].shape[1]))
+        else:
+            losses = [loss_fn(targets, outputs)]
         kl = getattr(model.net, "kl", None)
         if hasattr(model.net, "kl") and kl is not None:
             # The paper's per-sample loss is Σ (error²) over the 2M outputs + β KL;
             # DeepXDE's data loss is the mean, so the KL column is β KL / (2M).
-            return [data, self.beta * kl * (outputs.shape[0] / outputs.numel())]
-        return [data]
+            return [*losses, self.beta * kl * (outputs.shape[0] / outputs.numel())]
+        return losses
 
     def losses_train(self, targets, outputs, loss_fn, inputs, model, aux=None):
-        losses = self._losses(targets, outputs, loss_fn, model)
+        losses = self._losses(targets, outputs, loss_fn, model, inputs)
         if self._record:  # the optimiser's call, not DeepXDE's display
             self.last_loss = float(sum(loss.detach() for loss in losses))
             self._record = False
         return losses
 
     def losses_test(self, targets, outputs, loss_fn, inputs, model, aux=None):
-        return self._losses(targets, outputs, loss_fn, model)
+        return self._losses(targets, outputs, loss_fn, model, inputs)
 
     def validation_loss(self, net, batch_size=100):
         """Mean per-sample L_tot on the whole validation set, in batches.

@@ -87,6 +87,8 @@ class ShardedOperatorData(OperatorData):
         max_rows: most training rows held at once (default: the rank's rows of a whole
             epoch, read in one pass); smaller values read the epoch in several passes.
         split_seed: seed of the train/validation split (default: the dataset's).
+        physics: a :class:`~nh_operators.data.PhysicsTerms` for physics-informed
+            training (default None); as :class:`~nh_operators.OperatorData`.
 
     Raises:
         ValueError: if N does not divide B, or a bad rank or max_rows.
@@ -105,7 +107,7 @@ class ShardedOperatorData(OperatorData):
 
     def __init__(self, rows, train_fraction=0.8, *, batch_size, rank=0, world_size=1,
                  dtype=np.float32, beta=0.0, shuffle_seed=0, monitor_size=100,
-                 max_rows=None, split_seed=None):
+                 max_rows=None, split_seed=None, physics=None):
         check_global_batch(batch_size, world_size)
         if not 0 <= rank < world_size:
             raise ValueError(f"rank must lie in [0, {world_size}), got {rank}")
@@ -118,7 +120,9 @@ class ShardedOperatorData(OperatorData):
         empty_V = np.empty((0, V_val.shape[1]), dtype)
         super().__init__((empty_V, trunk), np.empty((0, len(trunk), 2), dtype),
                          (V_val, trunk), np.stack([q_val, p_val], axis=-1), beta=beta,
-                         shuffle_seed=shuffle_seed, monitor_size=monitor_size)
+                         shuffle_seed=shuffle_seed, monitor_size=monitor_size,
+                         physics=physics)
+        self._labelled = None if physics is None else physics.labelled(len(train))
         self.rows, self.train_index, self.dtype = rows, train, dtype
         self.batch_size, self.rank, self.world_size = int(batch_size), rank, world_size
         self.max_rows = max_rows
@@ -149,7 +153,12 @@ class ShardedOperatorData(OperatorData):
             parts.append(part)
             meta.append((*bounds, scale))
         offsets = np.concatenate([[0], np.cumsum([len(p) for p in parts])])
-        V, q, p = self.rows.read(self.train_index[np.concatenate(parts)], self.dtype)
+        positions = np.concatenate(parts)
+        V, q, p = self.rows.read(self.train_index[positions], self.dtype)
+        if self._labelled is not None:  # physics-informed: unlabelled rows have no targets
+            q, p = q.copy(), p.copy()
+            q[~self._labelled[positions]] = np.nan
+            p[~self._labelled[positions]] = np.nan
         self._window = (epoch, step, stop, V, q, p, offsets, meta)
 
     def _current(self):
@@ -169,10 +178,10 @@ class ShardedOperatorData(OperatorData):
         a, b = offsets[j], offsets[j + 1]
         self.loss_scale = meta[j][3]
         self._record = True
-        return (V[a:b], self.train_x[1]), np.stack([q[a:b], p[a:b]], axis=-1)
+        return (V[a:b], self._trunk()), np.stack([q[a:b], p[a:b]], axis=-1)
 
     def losses_train(self, targets, outputs, loss_fn, inputs, model, aux=None):
-        losses = self._losses(targets, outputs, loss_fn, model)
+        losses = self._losses(targets, outputs, loss_fn, model, inputs)
         if self.world_size > 1:
             losses = [loss * self.loss_scale for loss in losses]
         if self._record:

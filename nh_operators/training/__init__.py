@@ -8,7 +8,8 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "averaging": ["WeightAverage"],
     "losses": ["LOSSES", "log_cosh"],
-    "checkpoint": ["load_checkpoint", "load_model", "save_checkpoint", "write_history"],
+    "checkpoint": ["load_checkpoint", "load_model", "network_from_config", "save_checkpoint",
+                   "write_history"],
     "files": ["CHECKPOINT", "CONFIG", "HISTORY", "write_atomic"],
     "config": ["TrainConfig", "TrainingDiverged", "resolve_device"],
     "distributed": ["Distributed", "RankFailed", "init_distributed"],

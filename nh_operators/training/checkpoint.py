@@ -17,7 +17,8 @@ import torch
 
 from .files import CHECKPOINT, CONFIG, HISTORY, write_atomic
 
-__all__ = ["load_checkpoint", "load_model", "save_checkpoint", "write_history"]
+__all__ = ["load_checkpoint", "load_model", "network_from_config", "save_checkpoint",
+           "write_history"]
 
 FORMAT = 1
 
@@ -81,13 +82,40 @@ def load_model(run_dir, device="cpu"):
     Example:
         >>> net, config = load_model("runs/traonet")  # doctest: +SKIP
     """
-    from ..models import build_model, cast_network
-
     state = load_checkpoint(run_dir)
     config = state["config"]
     with torch.random.fork_rng(devices=[]):
-        net = build_model(config["model"], config["preset"], config.get("variant", "ours"),
-                          **config["arch"])
-    net = cast_network(net, getattr(torch, config["dtype"]))
+        net = network_from_config(config)
     net.load_state_dict(state["model"])
     return net.to(device).eval(), config
+
+
+def network_from_config(config: dict) -> torch.nn.Module:
+    """The network a run's config describes, in its dtype, with fresh weights.
+
+    Physics-informed runs (``config["physics"]``) get the starting state as an output
+    transform (:func:`~nh_operators.data.state_transform`), as in training.
+
+    Args:
+        config: a resolved :class:`~nh_operators.TrainConfig` dict (a run's config.json).
+
+    Returns:
+        The network (weights from torch's global generator).
+
+    Raises:
+        ValueError: for a physics-informed config whose network couples its query times.
+    """
+    from ..data import state_transform
+    from ..models import build_model, cast_network
+
+    net = build_model(config["model"], config["preset"], config.get("variant", "ours"),
+                      **config["arch"])
+    net = cast_network(net, getattr(torch, config["dtype"]))
+    if config.get("physics") is not None:
+        if getattr(net, "query_coupled", False):
+            raise ValueError(
+                f"physics-informed training needs a network that predicts each time on its "
+                f"own; this {config['model']} couples its query times: add --arch "
+                "query_coupled=False (TrainConfig arch={'query_coupled': False})")
+        net.apply_output_transform(state_transform(net.n_sensors, net.initial_state))
+    return net

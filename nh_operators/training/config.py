@@ -4,6 +4,7 @@ import dataclasses
 
 import torch
 
+from ..data import PhysicsTerms
 from ..models import model_config, training_defaults
 from .losses import LOSSES
 from .schedulers import ExpHyperbolicLR, HyperbolicLR
@@ -55,6 +56,13 @@ class TrainConfig:
             weights with warm-up (:class:`~nh_operators.training.averaging.WeightAverage`;
             0.999 is a good value). The average is what validation scores and what
             the checkpoint's network (``load_model``) holds.
+        physics: None (default: learn from the labels) or a dict of
+            :class:`~nh_operators.data.PhysicsTerms` fields, e.g.
+            ``{"label_fraction": 0.1, "energy": 0.1}``: learn from the residual of
+            Hamilton's equations (with the labels of that share of the rows). The network
+            must be pointwise in time (``arch={"query_coupled": False}`` for the sequence
+            networks); it gets the starting state as an output transform, in training and
+            wherever ``load_model`` rebuilds it. Validation still scores against labels.
     """
 
     model: str
@@ -79,6 +87,7 @@ class TrainConfig:
     train_fraction: float = 0.8
     loss: str = "mse"
     ema: float = 0.0
+    physics: dict | None = None
 
     def resolved(self):
         """A plain dict with every default filled in, validated.
@@ -115,6 +124,13 @@ class TrainConfig:
             raise ValueError(f"unknown loss {cfg['loss']!r}; choose from {sorted(LOSSES)}")
         if not 0.0 <= cfg["ema"] < 1.0:
             raise ValueError(f"ema must be 0 (none) or a decay in (0, 1), got {cfg['ema']}")
+        if cfg["physics"] is not None:
+            try:
+                cfg["physics"] = dataclasses.asdict(PhysicsTerms(**cfg["physics"]))
+            except TypeError as err:
+                raise ValueError(f"physics: {err} (fields: "
+                                 f"{[f.name for f in dataclasses.fields(PhysicsTerms)]})"
+                                 ) from None
         if not cfg["lr"] > 0:
             raise ValueError(f"lr must be positive, got {cfg['lr']}")
         return cfg

@@ -15,10 +15,10 @@ import numpy as np
 import torch
 
 from .._backend import ensure_pytorch_backend
-from ..data import ShardedOperatorData, check_global_batch, open_rows
-from ..models import build_model, cast_network, count_parameters
+from ..data import PhysicsTerms, ShardedOperatorData, check_global_batch, open_rows
+from ..models import count_parameters
 from .averaging import WeightAverage
-from .checkpoint import CHECKPOINT, load_checkpoint, write_config
+from .checkpoint import CHECKPOINT, load_checkpoint, network_from_config, write_config
 from .config import SCHEDULERS, TrainingDiverged
 from .distributed import init_distributed
 from .epochs import _EpochEnd, _Run
@@ -115,17 +115,16 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
     cfg = {**cfg, "world_size": dist.world_size}
     state = _prepare(out, resume, cfg, checksum, dist)
 
-    dtype = getattr(torch, cfg["dtype"])
     with torch.random.fork_rng(devices=[device] if device.type == "cuda" else []):
         torch.manual_seed(cfg["seed"])
-        net = build_model(cfg["model"], cfg["preset"], cfg["variant"], **cfg["arch"])
-        net = cast_network(net, dtype).to(device)
+        net = network_from_config(cfg).to(device)
         data_obj = ShardedOperatorData(
             rows, cfg["train_fraction"], batch_size=cfg["batch_size"], rank=dist.rank,
             world_size=dist.world_size,
             dtype=np.float64 if cfg["dtype"] == "float64" else np.float32,
             beta=cfg["beta"], shuffle_seed=cfg["seed"], monitor_size=cfg["batch_size"],
-            max_rows=max_rows)
+            max_rows=max_rows,
+            physics=None if cfg["physics"] is None else PhysicsTerms(**cfg["physics"]))
         if dist.active and hasattr(net, "noise"):
             net.noise = data_obj.batch_noise  # the global batch's noise, sliced
         model = dde.Model(data_obj, dist.wrap(net))
@@ -233,7 +232,7 @@ def _prepare(out, resume, cfg, checksum, dist):
 
 #: Config keys added after the first checkpoints were written, with their defaults.
 _ADDED = {"loss": "mse", "ema": 0.0, "variant": "ours", "recipe": "ours",
-          "scheduler_step": "iteration"}
+          "scheduler_step": "iteration", "physics": None}
 
 
 def _check_resumable(state, cfg, checksum):

@@ -1,0 +1,171 @@
+"""Physics-informed losses for the paper's problem: Hamilton's equations as the target.
+
+What: :class:`PhysicsTerms`, the strategy an :class:`~nh_operators.OperatorData` (or a
+training run's data) uses instead of the plain data loss. Its loss columns are the mean
+squared residuals of dq/dt = p and dp/dt = −V'(q) at the collocation times, an optional
+energy term and an optional label term on a chosen share of the training rows.
+
+The math: V' comes from the not-a-knot cubic spline of the sensors
+(:class:`~nh_operators.data.physics_terms.SensorSpline`); the energy term is the mean
+squared drift (p²/2 + V(q) − E0)² with E0 = p0²/2 + V(q0). The starting state is not a
+loss term: the network's output transform makes it exact
+(:func:`~nh_operators.data.physics_terms.state_transform`). With ``causal`` ε > 0 the
+residual at time t_k is weighted by exp(−ε Σ_{j<k} r_j² Δt_j) per row (weights not
+differentiated), so later times count once earlier ones are resolved (Wang, Sankaran
+and Perdikaris, "Respecting causality is all you need for training physics-informed
+neural networks", 2022).
+
+Why: a residual needs no reference solve, so a network can train on potentials without
+labels, or with a few (``label_fraction``), and can be refined on one potential at test
+time.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import numpy as np
+import torch
+
+from .._constants import SENSORS
+from .physics_terms import SensorSpline, time_derivative
+
+__all__ = ["PhysicsTerms"]
+
+#: Names of the loss columns :meth:`PhysicsTerms.losses` returns, in order.
+COLUMNS = ("residual q", "residual p", "energy", "labels")
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsTerms:
+    """What a physics-informed training run minimises, and on which times and rows.
+
+    Args:
+        residual: weight of the two residual columns (default 1).
+        energy: weight of the energy-drift column (default 0: off).
+        labels: weight of the label column (default 1; it counts only on labelled rows).
+        label_fraction: share of the training rows whose labels are used, in [0, 1]
+            (default 0: no labels at all; 1: every row, i.e. data-driven plus residual).
+        extra_times: random collocation times in [0, t_max] drawn per iteration and
+            added to the data's own query times (default 0: the grid only).
+        causal: ε of the causal weighting (default 0: every time counts the same).
+        t_max: end of the time interval of the extra collocation times (default 2).
+        seed: seed of the labelled rows and the extra times.
+
+    Raises:
+        ValueError: for a negative weight, a fraction outside [0, 1], a negative count
+            or ε, or a non-positive t_max.
+
+    Example:
+        >>> terms = PhysicsTerms(label_fraction=0.25, seed=1)
+        >>> int(terms.labelled(8).sum())
+        2
+    """
+
+    residual: float = 1.0
+    energy: float = 0.0
+    labels: float = 1.0
+    label_fraction: float = 0.0
+    extra_times: int = 0
+    causal: float = 0.0
+    t_max: float = 2.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("residual", "energy", "labels", "causal"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
+        if not 0.0 <= self.label_fraction <= 1.0:
+            raise ValueError(f"label_fraction must lie in [0, 1], got {self.label_fraction}")
+        if int(self.extra_times) != self.extra_times or self.extra_times < 0:
+            raise ValueError(f"extra_times must be a non-negative integer, got "
+                             f"{self.extra_times}")
+        if not self.t_max > 0:
+            raise ValueError(f"t_max must be positive, got {self.t_max}")
+
+    def labelled(self, n_train: int) -> np.ndarray:
+        """(n_train,) bool: which training rows (by position) keep their labels."""
+        k = int(round(self.label_fraction * n_train))
+        mask = np.zeros(n_train, dtype=bool)
+        mask[np.random.default_rng([self.seed, 1]).permutation(n_train)[:k]] = True
+        return mask
+
+    def times(self, grid: np.ndarray, iteration: int) -> np.ndarray:
+        """The collocation times of one iteration: the grid (M, 1), then the extra ones."""
+        if not self.extra_times:
+            return grid
+        rng = np.random.default_rng([self.seed, 2, iteration])
+        extra = rng.uniform(0.0, self.t_max, (self.extra_times, 1)).astype(grid.dtype)
+        return np.concatenate([grid, extra])
+
+    def losses(self, inputs: tuple[torch.Tensor, torch.Tensor], outputs: torch.Tensor,
+               targets: torch.Tensor | None, n_sensors: int = SENSORS.size
+               ) -> list[torch.Tensor]:
+        """The four weighted loss columns (:data:`COLUMNS`) of one batch.
+
+        Args:
+            inputs: DeepXDE's ``(V, t)``: V (B, m) or (B, m + 2) with (q0, p0) last; t
+                (M', 1), requiring grad.
+            outputs: (B, M', 2) predictions (q, p) of a pointwise network, computed from
+                t, with the starting state built in.
+            targets: (B, M, 2) labels at the first M times, NaN on unlabelled rows, or
+                None.
+            n_sensors: m.
+
+        Returns:
+            [residual q, residual p, energy, labels], each a scalar tensor.
+
+        Raises:
+            ValueError: for outputs that are not (B, M', 2).
+        """
+        V, t = inputs
+        if outputs.ndim != 3 or outputs.shape[-1] != 2:
+            raise ValueError(f"physics-informed training needs outputs (B, M, 2) = (q, p), "
+                             f"got {tuple(outputs.shape)}")
+        dy = time_derivative(outputs, t)
+        q, p = outputs[..., 0], outputs[..., 1]
+        sensors = V[:, :n_sensors].to(outputs.dtype)
+        spline = _spline(n_sensors)
+        Vq, dVq = spline(sensors, q)
+        rq, rp = dy[..., 0] - p, dy[..., 1] + dVq
+        weight = self._causal_weights(rq.detach() ** 2 + rp.detach() ** 2, t)
+        columns = [self.residual * torch.mean(weight * rq**2),
+                   self.residual * torch.mean(weight * rp**2)]
+        if V.shape[1] >= n_sensors + 2:
+            q0, p0 = V[:, n_sensors:n_sensors + 1], V[:, n_sensors + 1:n_sensors + 2]
+        else:
+            q0 = p0 = torch.zeros_like(sensors[:, :1])
+        E0 = spline(sensors, q0.to(outputs.dtype))[0] + p0.to(outputs.dtype) ** 2 / 2
+        drift = p**2 / 2 + Vq - E0
+        columns.append(self.energy * torch.mean(drift**2))
+        columns.append(self.labels * self._label_loss(outputs, targets))
+        return columns
+
+    def _causal_weights(self, r2: torch.Tensor, t: torch.Tensor) -> torch.Tensor | float:
+        if not self.causal:
+            return 1.0
+        order = torch.argsort(t.detach()[:, 0])
+        ts = t.detach()[order, 0]
+        dt = torch.diff(ts, prepend=ts[:1])
+        cumulative = torch.cumsum(r2[:, order] * dt, dim=1) - r2[:, order] * dt
+        weight = torch.empty_like(r2)
+        weight[:, order] = torch.exp(-self.causal * cumulative)
+        return weight
+
+    @staticmethod
+    def _label_loss(outputs: torch.Tensor, targets: torch.Tensor | None) -> torch.Tensor:
+        if targets is None or targets.numel() == 0:
+            return outputs.sum() * 0.0
+        rows = torch.isfinite(targets.reshape(len(targets), -1)).all(dim=1)
+        if not bool(rows.any()):
+            return outputs.sum() * 0.0
+        m = targets.shape[1]
+        err = outputs[rows, :m] - targets[rows].to(outputs.dtype)
+        return torch.mean(err**2)
+
+
+@functools.lru_cache(maxsize=8)
+def _spline(n_sensors: int) -> SensorSpline:
+    """The sensors' spline operator for m uniform sensors on [0, 1] (built once per m)."""
+    return SensorSpline(np.linspace(0.0, 1.0, n_sensors))
