@@ -33,11 +33,14 @@ batch 256 (the 10k row: the same number of steps), lr 2e-3, ExpHyperbolicLR, see
 """
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -47,11 +50,14 @@ from nh_operators.evaluation import time_call
 from nh_operators.evaluation.methods import classical_methods
 from nh_operators.training import read_history
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import time_head  # noqa: E402  (the head-time row's network, next to this script)
+
 BASE = dict(width=256, depth=2, basis=32, grid=256)
 #: row → (architecture changes, data size "100k" or "10k").
 ROWS = {
     "base": ({}, "100k"),
-    "head-time": ({"head": "time"}, "100k"),
+    "head-time": ({}, "100k"),   # time_head.TimeHeadONet: the grid in time, not phase
     "width128": ({"width": 128}, "100k"),
     "width192": ({"width": 192}, "100k"),
     "width512": ({"width": 512}, "100k"),
@@ -76,6 +82,13 @@ ROWS = {
 }
 INFERENCE_ROWS = ("bfloat16", "torchscript", "compile", "threads2")
 FILES = {"100k": "{}-extended.h5", "10k": "{}-standard.h5"}
+#: Rows whose network is not PhaseONet: built under the name "phaseonet" inside these.
+NETWORKS = {"head-time": time_head.registered}
+
+
+def _built_as(row):
+    """The context in which ``row``'s network is built and loaded."""
+    return NETWORKS.get(row, contextlib.nullcontext)()
 
 
 def _data_path(args, size):
@@ -95,7 +108,8 @@ def train_rows(args):
             print(f"{row}: done")
             continue
         start = time.perf_counter()
-        nh.train(cfg, _data_path(args, size), out, resume=True, progress=False)
+        with _built_as(row):
+            nh.train(cfg, _data_path(args, size), out, resume=True, progress=False)
         record = {"row": row, "minutes": (time.perf_counter() - start) / 60,
                   "epochs": epochs, "threads": 1}
         tmp = os.path.join(out, "done.json.tmp")
@@ -156,7 +170,8 @@ def report(args):
             continue
         with open(os.path.join(out, "done.json")) as f:
             done = json.load(f)
-        net, _ = nh.load_model(out)
+        with _built_as(row):
+            net, _ = nh.load_model(out)
         base = net if row == "base" else base
         mean, median = _score(net, V, q, p)
         with torch.no_grad():

@@ -37,7 +37,7 @@ import torch
 import nh_operators as nh
 from nh_operators.data import load_dataset
 from nh_operators.evaluation import project_energy
-from nh_operators.models import PhaseONet
+from nh_operators.models import StatePhaseONet
 from nh_operators.training import load_model
 from nh_operators.solvers.periodic import orbit_periods
 from nh_operators.solvers.rows import row_source
@@ -96,7 +96,7 @@ def main():
     if args.computed:
         torch.manual_seed(0)   # the last layer is zero: the seed does not matter
         nets.append(("computed shape, no learned correction",
-                     PhaseONet(initial_state=True, shape="quadrature").eval()))
+                     StatePhaseONet(shape="quadrature").eval()))
     x = torch.tensor(np.c_[V, q0, p0], dtype=torch.float32)  # the networks as shipped
     losses, projected = [], []
     src = row_source(V, "sensors")

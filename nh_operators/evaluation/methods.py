@@ -11,10 +11,9 @@ import warnings
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
 
-from .._constants import SENSORS, TIMES
-from .._sensors import sensor_values
+from .._constants import TIMES
+from .._sensors import sensor_spline, sensor_values
 from ..solvers import integrate_sensors, paper_rk4
 
 __all__ = ["Method", "ClassicalMethod", "NeuralMethod", "CLASSICAL_METHODS",
@@ -231,7 +230,7 @@ def dop853_sensors(V, t, tol):
     q = np.empty((V.shape[0], t.size))
     p = np.empty_like(q)
     for i, v in enumerate(V):
-        force = CubicSpline(SENSORS, v, bc_type="not-a-knot").derivative()
+        force = sensor_spline(v).derivative()
         sol = solve_ivp(lambda _, y, f=force: (y[1], -f(y[0])), (0.0, max(ts[-1], 1e-300)),
                         (0.0, 0.0), method="DOP853", t_eval=ts, rtol=tol, atol=tol)
         if not sol.success:

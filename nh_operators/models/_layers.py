@@ -1,6 +1,8 @@
-"""Pieces shared by the networks: the DeepXDE base class, encodings, the time decoder."""
+"""Pieces shared by the networks: the DeepXDE base class, input checks, dtypes, encodings."""
 
 import math
+import warnings
+from typing import Optional
 
 import torch
 from torch import nn
@@ -15,14 +17,15 @@ NN = _dde.nn.pytorch.nn.NN
 Q_MID, Q_HALF, P_MAX = 0.5, 0.5, math.sqrt(8.0)
 
 
-def split_inputs(inputs, n_sensors, initial_state=False):
+def split_inputs(inputs, n_sensors, initial_state=False, query_dim=1):
     """Check and unpack DeepXDE's ``(V, t)`` pair.
 
     Args:
-        inputs: tuple ``(V, t)``: V of shape (B, n_sensors), t of shape (M, 1); with
-            ``initial_state``, V is (B, n_sensors + 2): the sensors, then q0 and p0.
+        inputs: tuple ``(V, t)``: V of shape (B, n_sensors), t of shape (M, query_dim);
+            with ``initial_state``, V is (B, n_sensors + 2): the sensors, then q0 and p0.
         n_sensors: the expected number of sensors.
         initial_state: whether the network reads a starting state after the sensors.
+        query_dim: the number d of coordinates of a query point (1 for time alone).
 
     Returns:
         (V, t) unchanged.
@@ -42,9 +45,73 @@ def split_inputs(inputs, n_sensors, initial_state=False):
                 if not initial_state and V.ndim == 2 and V.shape[1] == n_sensors + 2 else "")
         raise ValueError(f"V must have shape (batch, {width}){what}, got "
                          f"{tuple(V.shape)}{hint}")
-    if t.ndim != 2 or t.shape[1] != 1:
-        raise ValueError(f"t must have shape (M, 1), got {tuple(t.shape)}")
+    if t.ndim != 2 or t.shape[1] != query_dim:
+        hint = (f"; build the network with query_dim={t.shape[1]} for {t.shape[1]}-D "
+                "query points" if t.ndim == 2 and t.shape[1] != query_dim else "")
+        raise ValueError(f"query points must have shape (M, {query_dim}), got "
+                         f"{tuple(t.shape)}{hint}")
     return V, t
+
+
+#: Real dtype → complex dtype of the same precision (FNO's spectral weights).
+_COMPLEX_OF = {torch.float16: torch.complex32, torch.float32: torch.complex64,
+               torch.float64: torch.complex128}
+
+
+def cast_module(net: nn.Module, dtype: torch.dtype) -> nn.Module:
+    """Cast a module's real floating tensors to ``dtype`` and its complex ones to the
+    complex dtype of the same precision, in place (``Module.to(dtype)`` would drop the
+    imaginary part of complex weights). Integer tensors are left alone.
+
+    Args:
+        net: a ``torch.nn.Module``.
+        dtype: ``torch.float16``, ``torch.float32`` or ``torch.float64``.
+
+    Returns:
+        The same module.
+
+    Raises:
+        ValueError: for any other dtype.
+
+    Example:
+        >>> cast_module(nn.Linear(2, 3), torch.float64).weight.dtype
+        torch.float64
+    """
+    if dtype not in _COMPLEX_OF:
+        raise ValueError("dtype must be torch.float16, torch.float32 or torch.float64, "
+                         f"got {dtype}")
+
+    def cast(t: torch.Tensor) -> torch.Tensor:
+        if t.is_complex():
+            return t if t.dtype == _COMPLEX_OF[dtype] else t.to(_COMPLEX_OF[dtype])
+        if t.is_floating_point() and t.dtype != dtype:
+            return t.to(dtype)
+        return t
+
+    return net._apply(cast)
+
+
+def match_default_float(net: nn.Module) -> nn.Module:
+    """Cast a freshly built network to DeepXDE's default float, as DeepXDE's own
+    networks are built (``dde.config.real(torch)``; complex weights to the matching
+    complex dtype). Call it at the end of a network's ``__init__``.
+
+    With DeepXDE's default float32 and a network already in float32 nothing changes
+    (the same tensors are kept). After ``dde.config.set_default_float("float64")`` every
+    real parameter and buffer becomes float64 and every complex one complex128.
+
+    Args:
+        net: the network (any ``torch.nn.Module``).
+
+    Returns:
+        The same network, cast in place.
+
+    Example:
+        >>> net = match_default_float(nn.Linear(2, 3))
+        >>> net.weight.dtype == _dde.config.real(torch)
+        True
+    """
+    return cast_module(net, _dde.config.real(torch))
 
 
 def sinusoidal(position, d_model):
@@ -99,139 +166,55 @@ class StateEmbedding(nn.Module):
         return self.embed(state)[:, None, :]
 
 
-class CrossDecoderLayer(nn.Module):
-    """A transformer decoder layer without self-attention: each query token attends
-    to the memory only, then goes through the feed-forward block, so every query is
-    computed on its own (``nn.TransformerDecoderLayer`` minus its first block).
+def resolve_query_coupled(query_coupled: Optional[bool], query_attention: Optional[bool],
+                          default: bool = True) -> bool:
+    """The coupling switch of a network that also takes the older spelling.
+
+    ``query_coupled`` is the name every network takes; TraONet and MambONet also accept
+    ``query_attention`` (self-attention across the query points), which shipped
+    ``config.json`` files contain.
 
     Args:
-        d_model, nhead, dim_feedforward, dropout: as ``nn.TransformerDecoderLayer``.
-        activation: "relu" or "gelu".
-        norm_first: pre-norm (x + f(LN(x))) instead of post-norm (LN(x + f(x))).
-    """
+        query_coupled: the switch, or None.
+        query_attention: the older spelling, or None.
+        default: the value when neither is given.
 
-    def __init__(self, d_model, nhead, dim_feedforward, dropout=0.0, activation="relu",
-                 norm_first=False):
-        super().__init__()
-        self.norm_first = norm_first
-        self.cross = nn.MultiheadAttention(d_model, nhead, dropout=dropout,
-                                           batch_first=True)
-        self.ff = nn.Sequential(nn.Linear(d_model, dim_feedforward), _activation(activation),
-                                nn.Dropout(dropout), nn.Linear(dim_feedforward, d_model))
-        self.norm1 = nn.LayerNorm(d_model)
-        self.norm2 = nn.LayerNorm(d_model)
-        self.drop1 = nn.Dropout(dropout)
-        self.drop2 = nn.Dropout(dropout)
-
-    def _attend(self, x, memory):
-        return self.drop1(self.cross(x, memory, memory, need_weights=False)[0])
-
-    def forward(self, x, memory):
-        if self.norm_first:
-            x = x + self._attend(self.norm1(x), memory)
-            return x + self.drop2(self.ff(self.norm2(x)))
-        x = self.norm1(x + self._attend(x, memory))
-        return self.norm2(x + self.drop2(self.ff(x)))
-
-
-def _activation(name):
-    if name not in ("relu", "gelu"):
-        raise ValueError(f"activation must be 'relu' or 'gelu', got {name!r}")
-    return nn.ReLU() if name == "relu" else nn.GELU()
-
-
-def transformer_encoder(d_model, nhead, num_layers, dim_feedforward, dropout=0.0,
-                        activation="relu", norm_first=False):
-    """PyTorch's transformer encoder with our options (a final LayerNorm when pre-norm)."""
-    _activation(activation)
-    layer = nn.TransformerEncoderLayer(d_model, nhead, dim_feedforward, dropout,
-                                       activation=activation, batch_first=True,
-                                       norm_first=norm_first)
-    return nn.TransformerEncoder(layer, num_layers, enable_nested_tensor=False,
-                                 norm=nn.LayerNorm(d_model) if norm_first else None)
-
-
-class TimeDecoder(nn.Module):
-    """The trunk of TraONet and MambONet: time tokens attend to the encoded potential.
-
-    Each query time t becomes Linear(1, d)(t) plus the sinusoidal encoding of the
-    position t · ``time_scale`` (on the standard grid t_i = 2i/99 and the default
-    scale 99/2 this is the index i, as in the paper; unlike an index it keeps its
-    meaning for any set of query times). A transformer decoder without masks (every
-    time token sees every other and the whole memory) is followed by Linear(d, n_out).
-
-    With ``query_attention=True`` (the paper's decoder) the self-attention couples the
-    query times: a prediction at t depends slightly on which other times are asked for
-    in the same call. ``query_attention=False`` uses :class:`CrossDecoderLayer` (cross-
-    attention and feed-forward only), so each time is predicted on its own.
-
-    Args:
-        d_model, nhead, num_layers, dim_feedforward, n_outputs, dropout, time_scale:
-            as the networks that use it.
-        query_attention: self-attention across the query times (default True).
-        norm_first: pre-norm layers, plus a LayerNorm before the output layer.
-        activation: "relu" (default, PyTorch's) or "gelu".
-        scaled_outputs: False (default): the output layer predicts q and p themselves.
-            True: it predicts y, and q = Q_MID + Q_HALF · y_q, p = P_MAX · y_p (needs
-            ``n_outputs = 2``).
+    Returns:
+        Whether the network couples its query points.
 
     Raises:
-        ValueError: ``scaled_outputs`` with ``n_outputs`` other than 2.
+        ValueError: if both are given and disagree.
+
+    Example:
+        >>> resolve_query_coupled(None, False)
+        False
     """
-
-    def __init__(self, d_model, nhead, num_layers, dim_feedforward, n_outputs,
-                 dropout=0.0, time_scale=99 / 2, query_attention=True, norm_first=False,
-                 activation="relu", scaled_outputs=False):
-        super().__init__()
-        if scaled_outputs and n_outputs != 2:
-            raise ValueError(f"scaled_outputs needs n_outputs = 2 (q and p), got {n_outputs}")
-        self.scaled_outputs = bool(scaled_outputs)
-        self.d_model = d_model
-        self.time_scale = time_scale
-        self.query_attention = query_attention
-        self.embed = nn.Linear(1, d_model)
-        if query_attention:
-            _activation(activation)
-            layer = nn.TransformerDecoderLayer(d_model, nhead, dim_feedforward, dropout,
-                                               activation=activation, batch_first=True,
-                                               norm_first=norm_first)
-            self.decoder = nn.TransformerDecoder(layer, num_layers)
-        else:
-            self.layers = nn.ModuleList(
-                CrossDecoderLayer(d_model, nhead, dim_feedforward, dropout, activation,
-                                  norm_first) for _ in range(num_layers))
-        self.final_norm = nn.LayerNorm(d_model) if norm_first else None
-        self.head = nn.Linear(d_model, n_outputs)
-
-    def forward(self, t, memory, query_bias=None):
-        """t (M, 1), memory (B, m, d) → (B, M, n_outputs); ``query_bias`` (B, 1, d), when
-        given, is added to every time token of its row."""
-        tokens = self.embed(t) + sinusoidal(t[:, 0] * self.time_scale, self.d_model)
-        tokens = tokens.expand(memory.shape[0], -1, -1)
-        if query_bias is not None:
-            tokens = tokens + query_bias
-        if self.query_attention:
-            h = self.decoder(tokens, memory)
-        else:
-            h = tokens
-            for layer in self.layers:
-                h = layer(h, memory)
-        if self.final_norm is not None:
-            h = self.final_norm(h)
-        y = self.head(h)
-        if self.scaled_outputs:
-            y = torch.stack([Q_MID + Q_HALF * y[..., 0], P_MAX * y[..., 1]], dim=-1)
-        return y
+    if query_coupled is not None and query_attention is not None \
+            and bool(query_coupled) != bool(query_attention):
+        raise ValueError(f"query_coupled={query_coupled} and query_attention="
+                         f"{query_attention} disagree; query_attention is the older name "
+                         "of query_coupled: give one of them")
+    for value in (query_coupled, query_attention):
+        if value is not None:
+            return bool(value)
+    return default
 
 
 class OperatorNet(NN):
     """Abstract base of our networks: input checks and DeepXDE's transforms.
 
-    Subclasses implement ``_forward(V, t)`` → (B, M, n_outputs); with
-    ``initial_state`` V holds the sensors then (q0, p0) (:meth:`_sensors_and_state`). DeepXDE's feature
-    transform (``apply_feature_transform``) is applied to t, as in DeepXDE's own
+    Subclasses implement ``_forward(V, t)`` → (B, M, n_outputs), t the (M, query_dim)
+    query points; with ``initial_state`` V holds the sensors then (q0, p0)
+    (:meth:`_sensors_and_state`). DeepXDE's feature transform
+    (``apply_feature_transform``) is applied to t, as in DeepXDE's own
     ``DeepONetCartesianProd``; its output transform gets ``((V, t), y)``. With
     ``n_outputs == 1`` the last axis is dropped, again as DeepXDE's DeepONet does.
+    Subclasses set ``regularizer`` (DeepXDE's ``regularization=``) and end their
+    ``__init__`` with :func:`match_default_float`.
+
+    A query-coupled network (``query_coupled``) warns once when a derivative with
+    respect to its query points is taken with its graph kept (``dde.grad``'s way, for
+    a PDE residual): such derivatives are not pointwise.
     """
 
     n_sensors = 100
@@ -242,11 +225,15 @@ class OperatorNet(NN):
     #: True when a prediction at one time depends on the other times of the same call
     #: (self-attention over the query times, or an LSTM reading them as a sequence).
     query_coupled = False
+    #: Number d of coordinates of a query point: the trunk input is (M, d).
+    query_dim = 1
 
     def forward(self, inputs):
-        V, t = split_inputs(inputs, self.n_sensors, self.initial_state)
+        V, t = split_inputs(inputs, self.n_sensors, self.initial_state, self.query_dim)
         if self._input_transform is not None:
             t = self._input_transform(t)
+        if self.query_coupled and torch.is_grad_enabled() and t.requires_grad:
+            t = self._watch_query_derivatives(t)
         y = self._forward(V, t)
         if self.n_outputs == 1:
             y = y[..., 0]
@@ -256,6 +243,30 @@ class OperatorNet(NN):
 
     def _forward(self, V, t):  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _watch_query_derivatives(self, t: torch.Tensor) -> torch.Tensor:
+        """Warn (once per network) when a derivative with respect to the query points
+        that keeps its graph, as ``dde.grad.jacobian``/``hessian`` take it for a PDE
+        residual, reaches them: a query-coupled network's is not pointwise. A plain
+        ``loss.backward()`` (data-driven training, where DeepXDE also marks the query
+        points as requiring grad) does not warn."""
+        if getattr(self, "_warned_query_derivatives", False):
+            return t
+        t = t.view_as(t)  # a fresh node per call, so hooks never pile up on a leaf
+
+        def hook(grad: torch.Tensor) -> None:
+            if grad.requires_grad and not self._warned_query_derivatives:
+                self._warned_query_derivatives = True
+                warnings.warn(
+                    f"{type(self).__name__} couples its query points (query_coupled=True): "
+                    "its derivatives with respect to them (dde.grad.jacobian / hessian) are "
+                    "not pointwise, so a PDE residual built from them is not the PDE's; "
+                    "build it with query_coupled=False for physics-informed training",
+                    UserWarning, stacklevel=2)
+
+        self._warned_query_derivatives = False
+        t.register_hook(hook)
+        return t
 
     def _state_modules(self, d_model, state_in_queries=False):
         """The state's embeddings of the sequence networks: one encoder token, and with

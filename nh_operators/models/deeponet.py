@@ -1,8 +1,13 @@
 """DeepONet: DeepXDE's own ``DeepONetCartesianProd``, configured for (q, p)."""
 
+from typing import Optional
+
 import torch as _torch
 
-from ._layers import _dde, split_inputs
+from .._backend import ensure_pytorch_backend
+from ._layers import match_default_float, split_inputs
+
+_dde = ensure_pytorch_backend()
 
 __all__ = ["DeepONet"]
 
@@ -12,9 +17,18 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
 
     Not a re-implementation: this only turns the paper's three parameters into
     DeepXDE's layer lists. Branch: V (B, m) → ``hidden_layers`` × ``hidden_size`` →
-    2 · ``branches``; trunk: t (M, 1) → the same; with DeepXDE's ``split_both``
-    strategy the first ``branches`` features give q and the last give p, each an
-    inner product plus a learned bias.
+    k · ``branches`` for k = ``n_outputs``; trunk: x (M, d) → the same; with DeepXDE's
+    ``split_both`` strategy output i uses the i-th group of ``branches`` features
+    (for the paper's problem the first gives q, the second p), each an inner product
+    plus a learned bias.
+
+    **Query points.** The trunk is a plain MLP whose first layer reads the d =
+    ``query_dim`` coordinates of a point as they come, with no encoding and no scaling:
+    keep them of order 1 (the paper's t ∈ [0, 2] is), or rescale them with DeepXDE's
+    ``net.apply_feature_transform``. Each point goes through the trunk on its own, so
+    the network is never query-coupled and ``dde.grad`` derivatives are pointwise
+    (smooth activations, e.g. the default GELU, give non-zero second derivatives; ReLU's
+    are zero).
 
     Args:
         hidden_size: width of the hidden layers (paper: 128).
@@ -30,6 +44,14 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
         initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), and the
             branch reads all m + 2 numbers (default False: rest at q = 0).
+        query_dim: number d of coordinates of a query point (default 1: the time).
+        query_coupled: accepted for a common interface; only False (the default) is
+            possible.
+        regularization: DeepXDE's regularizer, e.g. ``("l2", 1e-5)`` (default None),
+            passed to ``DeepONetCartesianProd``.
+
+    Raises:
+        ValueError: ``query_coupled=True``, or ``query_dim`` below 1.
 
     Example:
         >>> import torch
@@ -38,18 +60,30 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
         torch.Size([3, 7, 2])
     """
 
-    def __init__(self, hidden_size=128, hidden_layers=3, branches=10,
-                 activation="gelu", initializer="Glorot normal", n_sensors=100,
-                 n_outputs=2, trunk_output_activation=True, initial_state=False):
+    #: Each query point goes through the trunk on its own.
+    query_coupled = False
+
+    def __init__(self, hidden_size: int = 128, hidden_layers: int = 3, branches: int = 10,
+                 activation: str = "gelu", initializer: str = "Glorot normal",
+                 n_sensors: int = 100, n_outputs: int = 2,
+                 trunk_output_activation: bool = True, initial_state: bool = False,
+                 query_dim: int = 1, query_coupled: Optional[bool] = False,
+                 regularization=None):
+        if query_coupled:
+            raise ValueError("DeepONet cannot couple its query points (query_coupled=True): "
+                             "its trunk reads each point on its own")
+        if not isinstance(query_dim, int) or query_dim < 1:
+            raise ValueError(f"query_dim must be a positive integer, got {query_dim!r}")
         hidden = [hidden_size] * hidden_layers
         extra = 2 if initial_state else 0
         width = n_outputs * branches
         torch_init = initializer == "torch"
         super().__init__(
-            [n_sensors + extra, *hidden, width], [1, *hidden, width], activation,
+            [n_sensors + extra, *hidden, width], [query_dim, *hidden, width], activation,
             "Glorot normal" if torch_init else initializer,
             num_outputs=n_outputs,
-            multi_output_strategy="split_both" if n_outputs > 1 else None)
+            multi_output_strategy="split_both" if n_outputs > 1 else None,
+            regularization=regularization)
         if torch_init:
             for layer in self.modules():
                 if isinstance(layer, _torch.nn.Linear):
@@ -61,9 +95,11 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
         self.trunk_output_activation = bool(trunk_output_activation)
         self.n_sensors = n_sensors
         self.initial_state = bool(initial_state)
+        self.query_dim = query_dim
+        match_default_float(self)
 
     def forward(self, inputs):
-        split_inputs(inputs, self.n_sensors, self.initial_state)
+        split_inputs(inputs, self.n_sensors, self.initial_state, self.query_dim)
         return super().forward(inputs)
 
 

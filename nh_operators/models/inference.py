@@ -1,14 +1,12 @@
 """Batched prediction with a trained network."""
 
-import warnings
-
 import numpy as np
 import torch
 
 from .._constants import TIMES
 from .._sensors import sensor_values
 
-__all__ = ["predict", "batched_forward", "as_network"]
+__all__ = ["as_network", "batched_forward", "interpolate_grid", "predict"]
 
 
 def batched_forward(net, V, t, batch_size):
@@ -78,12 +76,72 @@ def as_network(net):
                     f".net such as nh.pretrained(name); got {type(net).__name__}")
 
 
-def _is_training_grid(t):
+def _is_training_grid(t: np.ndarray) -> bool:
     return t.shape == TIMES.shape and np.allclose(t, TIMES, rtol=0, atol=1e-12)
+
+
+#: How far beyond [TIMES[0], TIMES[-1]] an asked time may lie (rounding) and be clamped.
+_GRID_SLACK = 1e-12
+
+
+def _check_in_grid_range(t: np.ndarray, who: str) -> None:
+    lo, hi = float(TIMES[0]), float(TIMES[-1])
+    if t.min() < lo - _GRID_SLACK or t.max() > hi + _GRID_SLACK:
+        raise ValueError(f"{who}: times must lie in the grid's range [{lo:g}, {hi:g}], got "
+                         f"t from {t.min():g} to {t.max():g}")
+
+
+def interpolate_grid(values: np.ndarray, t: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Values on the grid :data:`~nh_operators.TIMES` carried to the times ``t``.
+
+    The not-a-knot cubic spline through the grid values, in float64, evaluated at each
+    asked time on its own: the value at a time does not depend on the other times.
+
+    Args:
+        values: array whose ``axis`` has length 100 (one value per grid time), e.g.
+            (N, 100, 2) predictions.
+        t: (M,) times in [0, 2] (rounding beyond the ends by up to 1e-12 is clamped).
+        axis: the time axis of ``values``.
+
+    Returns:
+        float64 array of ``values``' shape with that axis of length M.
+
+    Raises:
+        ValueError: if ``values`` has no axis of 100 grid times, or a time lies outside
+            the grid's range [0, 2].
+
+    Example:
+        >>> import numpy as np
+        >>> from nh_operators import TIMES
+        >>> y = np.stack([TIMES**3, np.sin(TIMES)])                  # (2, 100)
+        >>> out = interpolate_grid(y, np.array([0.5, 1.234]))
+        >>> bool(np.allclose(out[0], [0.125, 1.234**3], rtol=0, atol=1e-12))
+        True
+    """
+    values = np.asarray(values, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    if values.ndim == 0 or values.shape[axis] != TIMES.size:
+        raise ValueError(f"values must have {TIMES.size} grid times along axis {axis}, got "
+                         f"shape {values.shape}")
+    if t.size:
+        _check_in_grid_range(t, "interpolation from the grid nh_operators.TIMES")
+    from scipy.interpolate import CubicSpline  # a slow import: only for coupled networks
+
+    spline = CubicSpline(TIMES, values, axis=axis, bc_type="not-a-knot")
+    return spline(np.clip(t, TIMES[0], TIMES[-1]))
 
 
 def predict(net, V, t, batch_size=1000):
     """Predict q(t) and p(t) for many potentials, in batches, without a graph.
+
+    A network whose answer at one time depends on the other times asked
+    (``net.query_coupled``: the paper's TraONet and MambONet decoders, VaRONet with
+    ``grid_decoder=False``) was trained on the 100-point grid :data:`~nh_operators.TIMES`
+    only. It is therefore always run on that grid, and its prediction is carried to the
+    asked times by the not-a-knot cubic spline through the grid values (in float64, as
+    :func:`~nh_operators.solve` does, :func:`interpolate_grid`): the answer at a time
+    does not depend on which other times were asked, and on the grid itself it is the
+    network's output unchanged. Other networks are evaluated at ``t`` directly.
 
     Args:
         net: a network of :data:`nh_operators.MODELS` (or any DeepXDE network with
@@ -98,14 +156,10 @@ def predict(net, V, t, batch_size=1000):
         (q, p): NumPy float64 arrays of shape (N, M) (or (M,) for a single V).
 
     Raises:
-        ValueError: for wrong shapes, non-finite inputs or a bad batch size.
+        ValueError: for wrong shapes, non-finite inputs or a bad batch size, and for
+            times outside [0, 2] (the training grid's range) on a query-coupled network.
         TypeError: if ``net`` is not a network (see :func:`as_network`) or V is not
             real numbers.
-
-    Warns:
-        UserWarning: when a network whose query times are coupled (TraONet, VaRONet,
-            MambONet: ``net.query_coupled``) is asked at times other than
-            :data:`~nh_operators.TIMES`.
 
     Example:
         >>> import numpy as np, nh_operators as nh
@@ -113,6 +167,12 @@ def predict(net, V, t, batch_size=1000):
         >>> q, p = nh.predict(net, np.zeros((3, 100)), np.linspace(0, 2, 5))
         >>> q.shape
         (3, 5)
+        >>> coupled = nh.build_model("traonet", preset="cpu")        # query_coupled
+        >>> V = 2 - 8 * nh.SENSORS * (1 - nh.SENSORS)
+        >>> alone, _ = nh.predict(coupled, V, [0.7])
+        >>> among, _ = nh.predict(coupled, V, [0.1, 0.7, 1.9])
+        >>> bool(alone[0] == among[1])
+        True
     """
     net = as_network(net)
     V = sensor_values(V)
@@ -130,15 +190,16 @@ def predict(net, V, t, batch_size=1000):
         raise ValueError("V and t must be finite")
     if int(batch_size) != batch_size or batch_size < 1:
         raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
-    if getattr(net, "query_coupled", False) and not _is_training_grid(t):
-        warnings.warn(
-            f"{type(net).__name__} couples the query times: asked at times other than the "
-            "100-point training grid, its predictions change (by up to 0.1-1 in q for the "
-            "10-epoch cpu models, docs/evaluation.md). Predict on nh_operators.TIMES and "
-            "interpolate, or use deeponet or fno, whose predictions do not depend on the "
-            "other times asked", UserWarning, stacklevel=2)
-    out = np.empty((len(V), len(t), 2))
-    for start, y in batched_forward(net, V, t[:, None], batch_size):
+    on_grid = _is_training_grid(t)
+    coupled = bool(getattr(net, "query_coupled", False))
+    if coupled and not on_grid:
+        _check_in_grid_range(t, f"{type(net).__name__} couples its query times, so it is run "
+                                "on its training grid nh_operators.TIMES and interpolated")
+    asked = t if on_grid or not coupled else TIMES.copy()  # TIMES is read-only
+    out = np.empty((len(V), len(asked), 2))
+    for start, y in batched_forward(net, V, asked[:, None], batch_size):
         out[start:start + len(y)] = y.double().cpu().numpy()
+    if asked is not t:
+        out = interpolate_grid(out, t, axis=1)
     q, p = out[..., 0], out[..., 1]
     return (q[0], p[0]) if single else (q, p)

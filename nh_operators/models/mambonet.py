@@ -1,9 +1,12 @@
 """MambONet: residual Mamba blocks over the potential, a transformer decoder over time."""
 
+from typing import Optional, Sequence, Union
+
 import torch
 from torch import nn
 
-from ._layers import OperatorNet, SensorEmbedding, TimeDecoder
+from ._decoder import TimeDecoder
+from ._layers import OperatorNet, SensorEmbedding, match_default_float, resolve_query_coupled
 from .mamba import Mamba
 
 __all__ = ["MambONet"]
@@ -40,12 +43,21 @@ class MambONet(OperatorNet):
         d_state, d_conv, expand: Mamba's state size (16), convolution width (4) and
             expansion factor (2).
         dropout: decoder dropout (default 0).
-        n_sensors, n_outputs, time_scale, query_attention, norm_first, activation: as
-            :class:`~nh_operators.models.TraONet` (the last two for the decoder).
+        n_sensors, n_outputs, time_scale, query_coupled, query_attention, norm_first,
+            activation, query_dim, regularization: as
+            :class:`~nh_operators.models.TraONet` (norm_first and activation for the
+            decoder). The query points are embedded and scaled as TraONet's (see
+            there: Linear(d, d_model) plus sinusoidal features of x_k · time_scale, the
+            frequencies dealt to the d coordinates in turn); with
+            ``query_coupled=False`` each is predicted on its own and ``dde.grad`` gives
+            pointwise first and second derivatives.
         scaled_outputs: as :class:`~nh_operators.models.TraONet` (default False).
         initial_state: True: V carries (q0, p0) after the sensors, (B, m + 2), embedded
             as one token at the start of the scan (default False: rest at q = 0).
         state_in_queries: as :class:`~nh_operators.models.TraONet`.
+
+    Raises:
+        ValueError: for inconsistent options, as TraONet.
 
     Example:
         >>> import torch
@@ -55,14 +67,22 @@ class MambONet(OperatorNet):
         torch.Size([3, 5, 2])
     """
 
-    query_coupled = True  # decoder self-attention over the query times (by default)
+    query_coupled = True  # decoder self-attention over the query points (by default)
 
-    def __init__(self, d_model=128, num_mamba_layers=4, nhead=4, num_decoder_layers=4,
-                 dim_feedforward=1024, d_state=16, d_conv=4, expand=2, dropout=0.0,
-                 n_sensors=100, n_outputs=2, time_scale=99 / 2, query_attention=True,
-                 norm_first=False, activation="relu", initial_state=False,
-                 state_in_queries=False, scaled_outputs=False):
+    def __init__(self, d_model: int = 128, num_mamba_layers: int = 4, nhead: int = 4,
+                 num_decoder_layers: int = 4, dim_feedforward: int = 1024, d_state: int = 16,
+                 d_conv: int = 4, expand: int = 2, dropout: float = 0.0,
+                 n_sensors: int = 100, n_outputs: int = 2,
+                 time_scale: Union[float, Sequence[float]] = 99 / 2,
+                 query_attention: Optional[bool] = None, norm_first: bool = False,
+                 activation: str = "relu", initial_state: bool = False,
+                 state_in_queries: bool = False, scaled_outputs: bool = False,
+                 query_coupled: Optional[bool] = None, query_dim: int = 1,
+                 regularization=None):
         super().__init__()
+        self.regularizer = regularization
+        query_attention = resolve_query_coupled(query_coupled, query_attention)
+        self.query_dim = query_dim
         self.initial_state = bool(initial_state)
         self._state_modules(d_model, state_in_queries)
         self.n_sensors = n_sensors
@@ -76,7 +96,8 @@ class MambONet(OperatorNet):
         self.norm = nn.LayerNorm(d_model)
         self.decoder = TimeDecoder(d_model, nhead, num_decoder_layers, dim_feedforward,
                                    n_outputs, dropout, time_scale, query_attention,
-                                   norm_first, activation, scaled_outputs)
+                                   norm_first, activation, scaled_outputs, query_dim)
+        match_default_float(self)
 
     def _forward(self, V, t):
         V, state = self._sensors_and_state(V)

@@ -4,18 +4,19 @@ import inspect
 
 import torch
 
+from ._layers import cast_module
 from .deeponet import DeepONet
 from .fno import FNO
 from .mambonet import MambONet
-from .phaseonet import PhaseONet
+from .phaseonet import phaseonet
 from .presets import (ARCHITECTURES, PRESETS, REFERENCE_ARCHITECTURES,
                       REFERENCE_TRAINING, TRAINING)
 from .reference import REFERENCE_MODELS
 from .traonet import TraONet
 from .varonet import VaRONet
 
-__all__ = ["MODELS", "PRESETS", "RECIPES", "VARIANTS", "build_model", "cast_network", "model_config",
-           "training_defaults", "count_parameters"]
+__all__ = ["MODELS", "PRESETS", "RECIPES", "VARIANTS", "build_model", "cast_network",
+           "count_parameters", "model_config", "training_defaults"]
 
 #: name → network class.
 MODELS = {
@@ -24,7 +25,7 @@ MODELS = {
     "varonet": VaRONet,
     "mambonet": MambONet,
     "fno": FNO,
-    "phaseonet": PhaseONet,
+    "phaseonet": phaseonet,  # PhaseONet, or StatePhaseONet with initial_state
 }
 
 
@@ -57,10 +58,27 @@ def model_config(name, preset="paper", variant="ours", **overrides):
     """
     cls, preset_args = _check(name, preset, variant)
     allowed = set(inspect.signature(cls).parameters)
+    if variant == "ours" and name == "phaseonet":
+        _check_phaseonet(overrides)
+        # the shared interface: built only for d = 1, uncoupled, which needs no argument
+        overrides = {k: v for k, v in overrides.items()
+                     if not (k in ("query_dim", "query_coupled") and k not in allowed)}
     unknown = sorted(set(overrides) - allowed)
     if unknown:
         raise ValueError(f"{name} has no argument(s) {unknown}; it takes {sorted(allowed)}")
     return {**preset_args, **overrides}
+
+
+def _check_phaseonet(overrides: dict) -> None:
+    """PhaseONet inverts the orbit of a 1-D Hamiltonian: say so for any other problem."""
+    query_dim = overrides.get("query_dim", 1)
+    n_outputs = overrides.get("n_outputs", 2)
+    if query_dim != 1 or n_outputs not in (1, 2) or overrides.get("query_coupled"):
+        raise ValueError(
+            "phaseonet serves only the 1-D Hamiltonian problem of this package: query "
+            "points are times t (query_dim=1) and the outputs q and p (n_outputs=2, or 1 "
+            f"for q alone); got query_dim={query_dim}, n_outputs={n_outputs}. Choose "
+            "deeponet, traonet, varonet, mambonet or fno for other operator problems")
 
 
 def build_model(name, preset="paper", variant="ours", **overrides):
@@ -73,15 +91,22 @@ def build_model(name, preset="paper", variant="ours", **overrides):
             of the standard dataset in under a minute on a 2-core CPU).
         variant: "ours" (default: this project's networks) or "reference" (the authors'
             networks as their code builds them, :data:`VARIANTS`; all but "fno").
-        **overrides: constructor arguments replacing the preset's.
+        **overrides: constructor arguments replacing the preset's. Every network of
+            "ours" takes ``n_sensors`` (m ≥ 1), ``n_outputs`` (k ≥ 1), ``query_dim``
+            (d ≥ 1: query points of shape (M, d)), ``query_coupled`` (False: each
+            query point is predicted on its own, and ``dde.grad`` derivatives are
+            pointwise) and DeepXDE's ``regularization``. PhaseONet serves only the
+            paper's problem (d = 1, k ≤ 2).
 
     Returns:
-        The network, a ``deepxde.nn.pytorch.NN``, in float32 on the CPU. Its weights
+        The network, a ``deepxde.nn.pytorch.NN``, on the CPU in DeepXDE's default float
+        (float32 unless ``dde.config.set_default_float`` said otherwise). Its weights
         come from torch's global generator: seed it (or use ``torch.random.fork_rng``)
         for reproducible weights.
 
     Raises:
-        ValueError: for an unknown name, preset, variant or argument.
+        ValueError: for an unknown name, preset, variant or argument, or a problem the
+            network cannot serve (PhaseONet with ``query_dim`` > 1 or 3 outputs).
 
     Example:
         >>> import torch
@@ -138,13 +163,6 @@ def cast_network(net, dtype):
     Returns:
         The same module, cast in place.
     """
-    complex_dtype = {torch.float32: torch.complex64, torch.float64: torch.complex128}
-    if dtype not in complex_dtype:
+    if dtype not in (torch.float32, torch.float64):
         raise ValueError(f"dtype must be torch.float32 or torch.float64, got {dtype}")
-
-    def cast(t):
-        if t.is_complex():
-            return t.to(complex_dtype[dtype])
-        return t.to(dtype) if t.is_floating_point() else t
-
-    return net._apply(cast)
+    return cast_module(net, dtype)

@@ -1,8 +1,11 @@
 """TraONet: a transformer encoder over the potential, a transformer decoder over time."""
 
+from typing import Optional, Sequence, Union
+
 import torch
 
-from ._layers import OperatorNet, SensorEmbedding, TimeDecoder, transformer_encoder
+from ._decoder import TimeDecoder, transformer_encoder
+from ._layers import OperatorNet, SensorEmbedding, match_default_float, resolve_query_coupled
 
 __all__ = ["TraONet"]
 
@@ -12,9 +15,18 @@ class TraONet(OperatorNet):
 
     Each sensor value V(x_j) is embedded by a shared Linear(1, d) plus the sinusoidal
     encoding of its index; a transformer encoder turns these tokens into a memory
-    (B, m, d). Query times go through :class:`~nh_operators.models._layers.TimeDecoder`
-    (embedding, sinusoidal encoding of t, transformer decoder without masks, and an
-    output layer to (q, p) — the layer the reference code skipped).
+    (B, m, d). Query points go through :class:`~nh_operators.models._decoder.TimeDecoder`
+    (embedding, sinusoidal encoding of the query coordinates, transformer decoder without
+    masks, and an output layer to the outputs — the layer the reference code skipped).
+
+    **Query points.** A query point x of d = ``query_dim`` coordinates (the time t for
+    the paper's problem) is embedded as Linear(d, d_model)(x) plus sinusoidal features:
+    the d_model / 2 frequencies 10000^(-2j/d_model) are dealt to the coordinates in turn
+    (j ↦ coordinate j mod d), each at the position x_k · ``time_scale``_k. The scale sets
+    the resolution: the finest frequency turns by one radian per unit of position, so a
+    good scale is about (points per coordinate − 1) / (its range), e.g. 99/2 for 100
+    times on [0, 2] (the default, where the position is the grid index), 63 for 64 points
+    on [0, 1]. The coordinates are not otherwise rescaled: keep them of order 1.
 
     Args:
         d_model: token width d (paper: 64). Must be even and divisible by ``nhead``.
@@ -24,11 +36,14 @@ class TraONet(OperatorNet):
         dropout: dropout in the transformer layers (default 0: a regression).
         n_sensors: length m of V (default 100).
         n_outputs: outputs per time (2: q and p; 1 gives shape (B, M)).
-        time_scale: positions of the time encoding are t · time_scale (default 99/2:
-            the index on the standard grid t_i = 2i/99).
-        query_attention: self-attention across the query times in the decoder
-            (default True, the paper's). False: each time is predicted on its own, and
-            ``query_coupled`` is False.
+        time_scale: positions of the query encoding are x_k · time_scale (default 99/2:
+            the index on the standard grid t_i = 2i/99); one float, or d floats.
+        query_coupled: self-attention across the query points in the decoder (default
+            True, the paper's). False: each point is predicted on its own by cross-
+            attention to the memory alone, and ``dde.grad.jacobian``/``hessian`` give
+            its pointwise first and second derivatives (physics-informed training).
+        query_attention: the older name of ``query_coupled`` (shipped configs use it);
+            giving both with different values is a ValueError.
         norm_first: pre-norm transformer layers (default False: post-norm, PyTorch's).
         activation: "relu" (default) or "gelu" in the feed-forward blocks.
         scaled_outputs: False (default): the output layer predicts q and p themselves.
@@ -40,8 +55,15 @@ class TraONet(OperatorNet):
         state_in_queries: with ``initial_state``, also add a second Linear(2, d) of the
             state to every time token of the decoder, so each query reads the state
             directly (default False).
+        query_dim: number d of coordinates of a query point (default 1: the time).
+        regularization: DeepXDE's regularizer, e.g. ``("l2", 1e-5)``, read by
+            ``dde.Model.compile`` from ``net.regularizer`` (default None).
 
-    Input ``(V, t)``: V (B, m), t (M, 1); output (B, M, n_outputs).
+    Input ``(V, x)``: V (B, m), x (M, d); output (B, M, n_outputs), or (B, M) for one
+    output. Built in DeepXDE's default float (``dde.config.real(torch)``).
+
+    Raises:
+        ValueError: for inconsistent options (see above), ``d_model`` below 2 d.
 
     Example:
         >>> import torch
@@ -50,13 +72,20 @@ class TraONet(OperatorNet):
         torch.Size([3, 7, 2])
     """
 
-    query_coupled = True  # decoder self-attention over the query times (by default)
+    query_coupled = True  # decoder self-attention over the query points (by default)
 
-    def __init__(self, d_model=64, nhead=8, num_layers=3, dim_feedforward=512,
-                 dropout=0.0, n_sensors=100, n_outputs=2, time_scale=99 / 2,
-                 query_attention=True, norm_first=False, activation="relu",
-                 scaled_outputs=False, initial_state=False, state_in_queries=False):
+    def __init__(self, d_model: int = 64, nhead: int = 8, num_layers: int = 3,
+                 dim_feedforward: int = 512, dropout: float = 0.0, n_sensors: int = 100,
+                 n_outputs: int = 2, time_scale: Union[float, Sequence[float]] = 99 / 2,
+                 query_attention: Optional[bool] = None, norm_first: bool = False,
+                 activation: str = "relu", scaled_outputs: bool = False,
+                 initial_state: bool = False, state_in_queries: bool = False,
+                 query_coupled: Optional[bool] = None, query_dim: int = 1,
+                 regularization=None):
         super().__init__()
+        self.regularizer = regularization
+        query_attention = resolve_query_coupled(query_coupled, query_attention)
+        self.query_dim = query_dim
         self.initial_state = bool(initial_state)
         self._state_modules(d_model, state_in_queries)
         self.n_sensors = n_sensors
@@ -67,8 +96,9 @@ class TraONet(OperatorNet):
                                            dropout, activation, norm_first)
         self.decoder = TimeDecoder(d_model, nhead, num_layers, dim_feedforward,
                                    n_outputs, dropout, time_scale, query_attention,
-                                   norm_first, activation, scaled_outputs)
+                                   norm_first, activation, scaled_outputs, query_dim)
         self.scaled_outputs = self.decoder.scaled_outputs
+        match_default_float(self)
 
     def _forward(self, V, t):
         V, state = self._sensors_and_state(V)

@@ -7,7 +7,8 @@ from .._constants import V0
 from .bounded import BoundedPotential
 from .bspline import MAX_CONTROL
 
-FunctionSpace = ensure_pytorch_backend().data.function_spaces.FunctionSpace
+_dde = ensure_pytorch_backend()
+FunctionSpace = _dde.data.function_spaces.FunctionSpace
 
 __all__ = ["BoundedPotentialSpace", "NORMALIZATIONS"]
 
@@ -23,6 +24,18 @@ def _as_generator(seed):
     if seed is None or isinstance(seed, (int, np.integer)):
         return np.random.default_rng(seed)
     raise TypeError(f"seed must be an int, None or a numpy.random.Generator, got {type(seed)!r}")
+
+
+def _points(x: np.ndarray | float) -> np.ndarray:
+    """Points as a flat float64 array, checked to lie in the potentials' domain [0, 1]."""
+    x = np.asarray(x, dtype=np.float64).reshape(-1)
+    inside = (x >= 0.0) & (x <= 1.0)   # False for NaN as well
+    if not np.all(inside):
+        bad = x[~inside]
+        raise ValueError(f"BoundedPotentialSpace: the potentials live on [0, 1] and are not "
+                         f"extrapolated; got {bad.size} point(s) outside it, ranging from "
+                         f"{bad.min():g} to {bad.max():g}")
+    return x
 
 
 class BoundedPotentialSpace(FunctionSpace):
@@ -66,8 +79,18 @@ class BoundedPotentialSpace(FunctionSpace):
     ``[n_GRF, q_1..q_7, V_1..V_7]``, NaN beyond n_GRF. They rebuild the potential
     exactly.
 
+    **DeepXDE's conventions.** :meth:`eval_batch` and :meth:`eval_one` return
+    ``dde.config.real``'s dtype (float32 unless ``dde.config.set_default_float`` says
+    otherwise), so their values go straight into DeepXDE's data objects; pass
+    ``dtype=np.float64`` (or use :meth:`potentials`, always float64) for numerics. Points
+    outside [0, 1] raise a ValueError, as DeepXDE's ``GRF`` does. With ``seed=None`` the
+    space follows DeepXDE's global seed: after ``dde.config.set_random_seed(s)`` it draws
+    as ``seed=s`` would (the seed is read at the first draw); with no global seed either,
+    it draws from fresh OS entropy.
+
     Args:
-        seed: int, None or ``numpy.random.Generator``; the space owns its generator.
+        seed: int, None or ``numpy.random.Generator``; the space owns its generator
+            (``None``: DeepXDE's global seed, see above).
         n_grf: (min, max) number of interior control points, both in [2, 7].
         length_scale: (min, max) of the GRF length scale.
         omega: the stability parameter ω, in (0, 1 / (2 max n_GRF)).
@@ -108,11 +131,21 @@ class BoundedPotentialSpace(FunctionSpace):
         self._candidates = None  # the normalised pool, drawn on first use
         self.cursor = 0  # candidates of the pool served (or skipped) so far
         self.skipped = 0  # candidates skipped: an interior control value at V0
-        self.rng = _as_generator(seed)
+        # None: made at the first draw, from DeepXDE's global seed as it is then
+        self._rng = None if seed is None else _as_generator(seed)
         self.n_grf = (int(lo), int(hi))
         self.length_scale = (float(length_scale[0]), float(length_scale[1]))
         self.omega = float(omega)
         self.margin = float(margin)
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The space's generator; with ``seed=None``, seeded from ``dde.config.random_seed``
+        (read here, on first use: DeepXDE's spaces draw from the global stream that
+        ``dde.config.set_random_seed`` seeds, whenever they draw)."""
+        if self._rng is None:
+            self._rng = np.random.default_rng(_dde.config.random_seed)
+        return self._rng
 
     def params(self):
         """The generator parameters, as stored with a dataset."""
@@ -208,12 +241,53 @@ class BoundedPotentialSpace(FunctionSpace):
         """The exact potentials of features, as one batched :class:`BoundedPotential`."""
         return BoundedPotential(*cls.controls(features))
 
-    def eval_one(self, feature, x):
-        """V of one potential at x (a float or an array of points)."""
-        values = self.potentials(np.asarray(feature)[None, :])[0].V(np.asarray(x).reshape(-1))
-        return float(values[0]) if values.size == 1 else values
+    def eval_one(self, feature: np.ndarray, x: np.ndarray | float, *,
+                 dtype: type | None = None) -> np.ndarray | np.floating:
+        """V of one potential at x.
 
-    def eval_batch(self, features, xs):
-        """V of every potential at points xs of shape (n_points, 1): (n_functions, n_points)."""
-        xs = np.asarray(xs, dtype=np.float64).reshape(-1)
-        return self.potentials(features).V(xs)
+        Args:
+            feature: (15,) features of one potential.
+            x: a point or an array of points in [0, 1].
+            dtype: the result's dtype (default ``dde.config.real(np)``: float32 unless
+                DeepXDE is set to float64); the values are computed in float64.
+
+        Returns:
+            A NumPy scalar of ``dtype`` for one point, else an array (n_points,).
+
+        Raises:
+            ValueError: for points outside [0, 1].
+
+        Example:
+            >>> space = BoundedPotentialSpace(seed=1)
+            >>> v = space.eval_one(space.random(1)[0], 1.0)
+            >>> v.dtype, round(float(v), 6)
+            (dtype('float32'), 2.0)
+        """
+        dtype = _dde.config.real(np) if dtype is None else dtype
+        values = self.potentials(np.asarray(feature)[None, :])[0].V(_points(x)).astype(dtype)
+        return values[0] if values.size == 1 else values
+
+    def eval_batch(self, features: np.ndarray, xs: np.ndarray, *,
+                   dtype: type | None = None) -> np.ndarray:
+        """V of every potential at every point.
+
+        Args:
+            features: (n_functions, 15) features.
+            xs: (n_points, 1) points in [0, 1].
+            dtype: the result's dtype (default ``dde.config.real(np)``, as DeepXDE's own
+                spaces); the values are computed in float64, so ``np.float64`` gives
+                them exactly.
+
+        Returns:
+            (n_functions, n_points) array of ``dtype``.
+
+        Raises:
+            ValueError: for points outside [0, 1] (DeepXDE's ``GRF`` raises too).
+
+        Example:
+            >>> space = BoundedPotentialSpace(seed=1)
+            >>> space.eval_batch(space.random(2), np.array([[0.0], [0.5]])).dtype
+            dtype('float32')
+        """
+        dtype = _dde.config.real(np) if dtype is None else dtype
+        return self.potentials(features).V(_points(xs)).astype(dtype, copy=False)

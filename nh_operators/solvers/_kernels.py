@@ -1,4 +1,4 @@
-"""Compiled (numba) solvers: fixed-step and adaptive trajectories, the sensors' spline.
+"""Compiled (numba) solvers: fixed-step and adaptive trajectories.
 
 The trajectory kernels take a force function ``force(params, x) -> -V'(x)`` (see
 :mod:`nh_operators.potentials._spline_kernels`) as an argument. They are inlined into
@@ -8,12 +8,14 @@ kernels call in turn: all compiled once per force
 The adaptive truth in the curve parameter lives in :mod:`._curve_kernels`. The same
 Python source also runs uncompiled (``_trajectory_fixed.py_func``) with a plain
 Python force, which is how arbitrary user callables are integrated without a second copy
-of the steppers.
+of the steppers. The sensors' spline coefficients come from the one sensor-spline helper
+(:func:`nh_operators._sensors.notaknot_params`, re-exported here for the solvers).
 """
 
 import numba
 import numpy as np
 
+from .._sensors import notaknot_params  # noqa: F401 (the solvers' spline kernel)
 from ..potentials._spline_kernels import FORCE, _JIT, _JIT_FN_ARG, _cubic, _dcubic, specialised
 from ..potentials.bspline import Q_OFFSET, V_OFFSET
 
@@ -236,54 +238,3 @@ def level_gap(q, p, q2, p2, w):
             s += wi[j] * ((q2[i, j] - q[i, j]) ** 2 + (p2[i, j] - p[i, j]) ** 2)
         out[i] = 0.5 * s
     return out
-
-
-# ------------------------------------------------- not-a-knot spline of the sensors
-
-
-@numba.njit(parallel=True, **_JIT)
-def notaknot_params(V, out):
-    """Per-piece coefficients of the not-a-knot cubic spline through each row of V.
-
-    V holds values on a uniform grid of n points (spacing h = 1/(n-1)); out[i] gets, for
-    piece j, a0..a3 of the cubic in s = (q - q_j)/h. Slopes m solve the tridiagonal
-    system m_{k-1} + 4 m_k + m_{k+1} = 3 (d_{k-1} + d_k), d = divided differences, with
-    the not-a-knot rows eliminated into the second and last-but-one equations
-    (2 m_1 + m_2 = (d_0 + 5 d_1)/2, mirrored at the right), which leaves a strictly
-    diagonally dominant system for the Thomas algorithm. Each row is computed the same
-    way whatever the batch, so results do not depend on the batch size.
-    """
-    n = V.shape[1]
-    h = 1.0 / (n - 1)
-    for i in numba.prange(V.shape[0]):
-        y = V[i]
-        d = np.empty(n - 1)
-        for k in range(n - 1):
-            d[k] = (y[k + 1] - y[k]) / h
-        m = np.empty(n)
-        cp = np.empty(n)
-        rhs = np.empty(n)
-        # unknowns m_1 .. m_{n-2}; rows k = 1 .. n-2
-        for k in range(1, n - 1):
-            rhs[k] = 3.0 * (d[k - 1] + d[k])
-        rhs[1] = 0.5 * (d[0] + 5.0 * d[1])
-        rhs[n - 2] = 0.5 * (d[n - 2] + 5.0 * d[n - 3])
-        # forward sweep: row 1 (2, 1), rows 2..n-3 (1, 4, 1), row n-2 (1, 2)
-        b = 2.0
-        cp[1] = 1.0 / b
-        rhs[1] = rhs[1] / b
-        for k in range(2, n - 1):
-            b = (2.0 if k == n - 2 else 4.0) - cp[k - 1]
-            cp[k] = 1.0 / b
-            rhs[k] = (rhs[k] - rhs[k - 1]) / b
-        m[n - 2] = rhs[n - 2]
-        for k in range(n - 3, 0, -1):
-            m[k] = rhs[k] - cp[k] * m[k + 1]
-        m[0] = 0.5 * (5.0 * d[0] + d[1]) - 2.0 * m[1]
-        m[n - 1] = 0.5 * (5.0 * d[n - 2] + d[n - 3]) - 2.0 * m[n - 2]
-        for j in range(n - 1):
-            delta = y[j + 1] - y[j]
-            out[i, 4 * j] = y[j]
-            out[i, 4 * j + 1] = h * m[j]
-            out[i, 4 * j + 2] = 3.0 * delta - h * (2.0 * m[j] + m[j + 1])
-            out[i, 4 * j + 3] = -2.0 * delta + h * (m[j] + m[j + 1])

@@ -8,7 +8,8 @@ from model_helpers import inputs, tiny
 import nh_operators as nh
 from nh_operators.models import DeepONet, cast_network, model_config
 
-deepxde = nh._ensure_pytorch_backend()
+from nh_operators._backend import ensure_pytorch_backend  # noqa: E402
+deepxde = ensure_pytorch_backend()
 
 
 @pytest.mark.parametrize("name", sorted(nh.MODELS))
@@ -58,7 +59,7 @@ def test_bad_input_shapes_are_named(name):
     V, t = inputs()
     with pytest.raises(ValueError, match=r"V must have shape \(batch, 100\)"):
         net((V[:, :50], t))
-    with pytest.raises(ValueError, match=r"t must have shape \(M, 1\)"):
+    with pytest.raises(ValueError, match=r"query points must have shape \(M, 1\)"):
         net((V, t[:, 0]))
     with pytest.raises(ValueError, match="pair"):
         net(V)

@@ -1,5 +1,6 @@
-"""PhaseONet: the period quadrature against exact periods, and the structure of its
-outputs (T-periodic, q even and p odd in time, the harmonic orbit at zero weights)."""
+"""PhaseONet: the period quadrature against exact periods, the structure of its outputs
+(T-periodic, q even and p odd in time, the harmonic orbit at zero weights), its float64
+rule as buffers, and the factory behind ``build_model("phaseonet")``."""
 
 import math
 
@@ -9,7 +10,8 @@ import torch
 from scipy.integrate import quad
 
 import nh_operators as nh
-from nh_operators.models import PhaseONet, cast_network
+from nh_operators.models import PhaseONet, StatePhaseONet, cast_network, period_quadrature
+from nh_operators.models.phase_start import QuadratureStart
 from nh_operators.solvers.periodic import orbit_periods
 from nh_operators.solvers.rows import row_source
 
@@ -41,7 +43,7 @@ def test_period_of_a_cubic_well_matches_adaptive_quadrature():
 def test_period_of_generator_potentials_matches_the_orbit_solver():
     # Independent method: the classical orbit period of the sensor spline.
     space = nh.BoundedPotentialSpace(seed=4)
-    V = space.eval_batch(space.random(6), nh.SENSORS[:, None])
+    V = space.eval_batch(space.random(6), nh.SENSORS[:, None], dtype=np.float64)
     ours = net64().period(torch.as_tensor(V)).numpy()
     out, status = orbit_periods(row_source(np.asarray(V), "sensors"), np.arange(6),
                                 np.zeros(6), np.zeros(6))
@@ -78,21 +80,15 @@ def test_zero_coefficients_give_the_harmonic_orbit_within_the_interpolation_boun
     assert (q - exact).abs().max().item() > bound / 10  # the bound is not vacuous
 
 
-def test_time_head_ignores_the_period_in_its_read_out():
-    net = net64(head="time")
-    V = (2 - 8 * X * (1 - X))[None]
-    with torch.no_grad():
-        y = net((V, torch.tensor([[2.0], [3.0], [7.0]], dtype=torch.float64)))[0]
-    torch.testing.assert_close(y[1], y[0])  # past the horizon: the last node
-    torch.testing.assert_close(y[2], y[0])
-
-
 @pytest.mark.parametrize("kw, message", [
     (dict(grid=1), "grid ≥ 2"),
     (dict(basis=0), "positive basis"),
     (dict(activation="swish"), "unknown activation 'swish'"),
-    (dict(head="space"), "head must be 'phase' or 'time'"),
-    (dict(n_outputs=3), "n_outputs must be 1 or 2"),
+    (dict(shape="exact"), "shape must be 'learned' or 'quadrature'"),
+    (dict(n_outputs=3), r"serves only the 1-D Hamiltonian problem: n_outputs must be 1 or 2"),
+    (dict(query_dim=2), (r"serves only the 1-D Hamiltonian problem: its query points are "
+                         r"times \(query_dim=1\), got query_dim=2; .*'deeponet'")),
+    (dict(query_coupled=True), "answers each time on its own"),
 ])
 def test_bad_arguments_are_named(kw, message):
     with pytest.raises(ValueError, match=message):
@@ -103,3 +99,50 @@ def test_the_state_dict_holds_only_trained_tensors():
     keys = set(PhaseONet(width=8, depth=1, basis=4, grid=8).state_dict())
     assert keys == {"basis", "branch.0.weight", "branch.0.bias", "branch.2.weight",
                     "branch.2.bias"}
+
+
+def test_the_rule_stays_float64_through_casts_and_follows_the_device():
+    net = PhaseONet(width=8, depth=1, basis=4, grid=8)
+    exact = torch.tensor(-2 * period_quadrature(100, 64)[0])
+    for cast in (lambda n: cast_network(n, torch.float64), lambda n: n.float(),
+                 lambda n: n.half()):
+        rule = cast(net).quadrature
+        assert rule.matrix.dtype == torch.float64 and torch.equal(rule.matrix, exact)
+        assert rule.period_weights.dtype == torch.float64
+    assert net.basis.dtype == torch.float16           # the network itself was cast
+    moved = net.to("meta")                            # .to(device) moves the rule
+    assert {b.device.type for b in moved.quadrature.buffers()} == {"meta"}
+    assert moved.quadrature.matrix.dtype == torch.float64
+
+
+def test_the_factory_builds_the_network_of_the_config():
+    rest = nh.build_model("phaseonet", "cpu", width=8, depth=1, basis=4, grid=8,
+                          regularization=["l2", 1e-5])
+    state = nh.build_model("phaseonet", "cpu", width=8, depth=1, basis=4, grid=8,
+                           initial_state=True, shape="quadrature", panels=4)
+    assert type(rest) is PhaseONet and rest.regularizer == ["l2", 1e-5]
+    assert type(state) is StatePhaseONet and isinstance(state.start, QuadratureStart)
+    assert state.quadrature.rule_nodes.numel() == 4 * 16
+    assert not rest.initial_state and state.initial_state
+    with pytest.raises(ValueError, match="panels .* needs initial_state=True"):
+        nh.build_model("phaseonet", "cpu", panels=4)
+    with pytest.raises(ValueError, match=r"no argument\(s\) \['head'\]"):
+        nh.build_model("phaseonet", "cpu", head="time")
+    with pytest.raises(ValueError, match="StatePhaseONet serves only the 1-D Hamiltonian "
+                                         "problem: n_outputs must be 2"):
+        nh.build_model("phaseonet", "cpu", initial_state=True, n_outputs=1)
+
+
+def test_one_output_is_the_first_of_two():
+    torch.manual_seed(2)
+    two = PhaseONet(width=8, depth=1, basis=4, grid=16)
+    one = PhaseONet(width=8, depth=1, basis=4, grid=16, n_outputs=1)
+    with torch.no_grad():     # the same MLP rows for q, the same basis row
+        one.branch[0].load_state_dict(two.branch[0].state_dict())
+        one.branch[2].weight.copy_(two.branch[2].weight[:4])
+        one.branch[2].bias.copy_(two.branch[2].bias[:4])
+        one.basis.copy_(two.basis[:1])
+    V, t = (2 - 8 * X * (1 - X))[None].float(), torch.linspace(0, 3, 9)[:, None]
+    with torch.no_grad():
+        assert one((V, t)).shape == (1, 9)
+        torch.testing.assert_close(one((V, t)), two((V, t))[..., 0], rtol=0, atol=0)

@@ -1,4 +1,4 @@
-"""PhaseONet's computed shape (``shape="quadrature"``): the phase integral inverted on the
+"""PhaseONet's computed shape (the quadrature start): the phase integral inverted on the
 composite rule, against exact and independent trajectories, near a separatrix included;
 the compiled rows against the torch formulas; and the options' errors."""
 
@@ -10,8 +10,9 @@ import torch
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from nh_operators.models import PhaseONet, cast_network
-from nh_operators.models._orbit_shape import harmonic_shape, shape_table
+from nh_operators.models import PhaseONet, StatePhaseONet, cast_network
+from nh_operators.models.orbit_shape import harmonic_shape, shape_table
+from nh_operators.models.phase_start import HarmonicStart, QuadratureStart, start_shape
 
 X = np.linspace(0, 1, 100)
 W = 4.0  # V = 2 − W² q (1 − q) / 2: harmonic about q = 1/2 with frequency W
@@ -20,8 +21,8 @@ DOUBLE_WELL = 2 - 40 * X**2 * (1 - X) ** 2 * (0.1 + 8 * (X - 0.5) ** 2)  # barri
 
 def computed(grid=256, seed=0, panels=32):
     torch.manual_seed(seed)
-    net = PhaseONet(width=16, depth=1, basis=4, grid=grid, initial_state=True,
-                    shape="quadrature", panels=panels)
+    net = StatePhaseONet(width=16, depth=1, basis=4, grid=grid, shape=QuadratureStart(),
+                         panels=panels)
     return cast_network(net, torch.float64).eval()
 
 
@@ -101,11 +102,17 @@ def test_shape_table_inverts_a_known_phase():
     np.testing.assert_allclose(P[0].numpy(), Ph.numpy(), atol=1e-12)
 
 
-def test_the_shape_option_is_named_where_it_cannot_apply():
-    with pytest.raises(ValueError, match="shape must be 'learned' or 'quadrature'"):
-        PhaseONet(initial_state=True, shape="exact")
-    with pytest.raises(ValueError, match="shape='quadrature' needs head='phase'"):
-        PhaseONet(shape="quadrature", head="time")
+def test_the_shape_is_a_strategy_named_in_configs():
+    assert start_shape("learned") == HarmonicStart()
+    assert start_shape("quadrature") == QuadratureStart()
+    assert start_shape(QuadratureStart()) == QuadratureStart()
+    for cls in (PhaseONet, StatePhaseONet):
+        with pytest.raises(ValueError, match="shape must be 'learned' or 'quadrature'"):
+            cls(shape="exact")
+    # the quadrature start zeroes the MLP's last layer: the start is the answer
+    net = PhaseONet(width=8, depth=1, basis=4, grid=8, shape="quadrature")
+    assert not net.branch[-1].weight.any() and not net.branch[-1].bias.any()
+    assert PhaseONet(width=8, depth=1, basis=4, grid=8).branch[-1].weight.any()
 
 
 def rest(nodes=64, grid=256):
@@ -127,7 +134,7 @@ def test_at_rest_it_converges_to_an_independent_solve_and_both_paths_agree():
     import nh_operators as nh
 
     space = nh.BoundedPotentialSpace(seed=11)
-    V = np.asarray(space.eval_batch(space.random(3), nh.SENSORS[:, None]))
+    V = np.asarray(space.eval_batch(space.random(3), nh.SENSORS[:, None], dtype=np.float64))
     t = np.linspace(0, 2, 100)
     errors = []
     for nodes, grid in ((32, 256), (64, 256), (128, 1024)):

@@ -1,4 +1,4 @@
-"""PhaseONet from a starting state: the orbit's turning points, period and phase against
+"""StatePhaseONet, PhaseONet from a starting state: the orbit's turning points, period and phase against
 exact and independent ones, the exact harmonic trajectory at zero weights, and the rest
 scene as a special case."""
 
@@ -11,7 +11,8 @@ from scipy.integrate import quad
 from scipy.interpolate import CubicSpline
 
 import nh_operators as nh
-from nh_operators.models import PhaseONet, cast_network
+from nh_operators.models import PhaseONet, StatePhaseONet, cast_network
+from nh_operators.models import orbit_coordinates as orbits
 from nh_operators.solvers import STATE_UNIFORMS, energy_states
 from nh_operators.solvers.periodic import orbit_periods
 from nh_operators.solvers.rows import row_source
@@ -22,7 +23,7 @@ W = 4.0  # V = 2 − W² q (1 − q) / 2: harmonic about q = 1/2 with frequency 
 
 def net64(seed=0, **kw):
     torch.manual_seed(seed)
-    net = PhaseONet(**{"width": 32, "depth": 2, "basis": 8, "initial_state": True, **kw})
+    net = StatePhaseONet(**{"width": 32, "depth": 2, "basis": 8, **kw})
     return cast_network(net, torch.float64).eval()
 
 
@@ -91,7 +92,7 @@ def test_period_and_phase_in_a_double_well_match_adaptive_quadrature():
 def test_periods_from_generator_states_match_the_orbit_solver():
     # Independent method: the classical orbit period of the sensor spline from a state.
     space = nh.BoundedPotentialSpace(seed=5)
-    V = np.asarray(space.eval_batch(space.random(8), nh.SENSORS[:, None]))
+    V = np.asarray(space.eval_batch(space.random(8), nh.SENSORS[:, None], dtype=np.float64))
     src = row_source(V, "sensors")
     q0, p0, _ = energy_states(src.values_at, np.random.default_rng(3).random((8, STATE_UNIFORMS)),
                               separatrix_share=0.0)
@@ -116,21 +117,25 @@ def test_zero_coefficients_give_the_exact_harmonic_trajectory_from_a_state():
 
 def test_at_rest_the_orbit_is_the_rest_scene():
     space = nh.BoundedPotentialSpace(seed=6)
-    V = np.asarray(space.eval_batch(space.random(4), nh.SENSORS[:, None]))
+    V = np.asarray(space.eval_batch(space.random(4), nh.SENSORS[:, None], dtype=np.float64))
     o = net64().state_orbit(rows(V, 0.0, 0.0))
     np.testing.assert_allclose(o["a"].numpy(), 0.0, atol=1e-14)
     np.testing.assert_allclose(o["b"].numpy(), 1.0, atol=1e-14)
     np.testing.assert_allclose(o["u0"].numpy(), 0.0, atol=1e-14)
-    rest = net64(initial_state=False).period(torch.tensor(V))
+    torch.manual_seed(0)
+    rest = PhaseONet(width=32, depth=2, basis=8).period(torch.tensor(V))
     # the rest head's 64 Gauss–Legendre nodes against the state head's 32 × 16
     np.testing.assert_allclose(o["T"].numpy(), rest.numpy(), rtol=1e-5)
     single = net64(panels=1).state_orbit(rows(V, 0.0, 0.0))["T"]   # 16 nodes
     assert np.abs(single.numpy() / o["T"].numpy() - 1).max() > 1e-7
 
 
-def test_the_state_option_is_named_where_it_cannot_apply():
-    with pytest.raises(ValueError, match="initial_state=True needs head='phase'"):
-        PhaseONet(initial_state=True, head="time")
+def test_the_state_network_is_named_where_it_cannot_apply():
+    with pytest.raises(ValueError, match="StatePhaseONet serves only the 1-D Hamiltonian "
+                                         r"problem: n_outputs must be 2 \(q and p\)"):
+        StatePhaseONet(n_outputs=1)
+    with pytest.raises(ValueError, match="query_dim=3"):
+        StatePhaseONet(query_dim=3)
     net = net64()
     with pytest.raises(ValueError, match=r"V must have shape \(batch, 102\)"):
         net((torch.zeros(1, 100, dtype=torch.float64), torch.zeros(3, 1, dtype=torch.float64)))
@@ -164,18 +169,16 @@ def test_a_method_passes_states_to_a_network_that_reads_them_and_refuses_otherwi
     np.testing.assert_allclose(q, direct[..., 0], rtol=1e-12)
     rest = method(V, nh.TIMES[:5])   # default: the rest state
     np.testing.assert_allclose(rest[0][1], q[1], rtol=1e-12)
-    plain = NeuralMethod(net64(initial_state=False), "plain", domain_check=False)
+    plain = NeuralMethod(PhaseONet(width=8, depth=1, basis=4), "plain", domain_check=False)
     with pytest.raises(ValueError, match=r"trained from the state \(0, 0\) only"):
         plain(V, nh.TIMES[:5], q0=0.3, p0=0.5)
 
 
 def test_the_compiled_brackets_are_the_torch_brackets_bit_for_bit():
-    from nh_operators.models import _orbit
-
     space = nh.BoundedPotentialSpace(seed=11)
     V = torch.tensor(space.potentials(space.random(200)).V(nh.SENSORS))
-    spline = _orbit.SensorSpline()
-    coef_map, grid_map, grid = spline.maps(torch.device("cpu"))
+    spline = orbits.SensorSpline()
+    coef_map, grid_map, grid = spline.maps()
     c, values = V @ coef_map, V @ grid_map
     rng = np.random.default_rng(0)
     q0 = torch.tensor(rng.uniform(0.01, 0.99, 200))
@@ -183,8 +186,8 @@ def test_the_compiled_brackets_are_the_torch_brackets_bit_for_bit():
     # energies from just above V(q0) (narrow orbits) to above V0 (open to both walls)
     E = V0q + torch.tensor(np.concatenate([rng.uniform(0, 1e-9, 50), rng.uniform(0, 1, 100),
                                            rng.uniform(3, 5, 50)]))
-    compiled = _orbit._brackets(spline, c, values, grid, q0, E, 48, compiled=True)
-    plain = _orbit._brackets(spline, c, values, grid, q0, E, 48, compiled=False)
+    compiled = orbits._brackets(spline, c, values, grid, q0, E, 48, compiled=True)
+    plain = orbits._brackets(spline, c, values, grid, q0, E, 48, compiled=False)
     for x, y in zip(compiled, plain):
         assert x.dtype == y.dtype and torch.equal(x, y)
     left, right = plain[2], plain[3]
@@ -194,19 +197,16 @@ def test_the_compiled_brackets_are_the_torch_brackets_bit_for_bit():
 def test_the_compiled_quadrature_agrees_with_the_differentiable_one():
     # without a gradient to carry the CPU takes one compiled pass; with one (the flow
     # Jacobian) the torch formulas run: both must give the same orbit
-    from nh_operators.models import _orbit
-
     space = nh.BoundedPotentialSpace(seed=12)
     V = torch.tensor(space.potentials(space.random(100)).V(nh.SENSORS))
     values = row_source(V.numpy(), "sensors").values_at
     q0, p0, _ = energy_states(values, np.random.default_rng(3).random((100, STATE_UNIFORMS)))
     q0, p0 = torch.tensor(q0), torch.tensor(p0)
-    spline = _orbit.SensorSpline()
-    s, w = (torch.tensor(x) for x in np.polynomial.legendre.leggauss(64))
-    s, w = (s + 1) / 2, w / 2
-    rule = _orbit.composite_rule(32, 16)
-    fast = _orbit.orbit(spline, V, q0, p0, s, w, rule=rule)
-    slow = _orbit.orbit(spline, V, q0.clone().requires_grad_(), p0, s, w, rule=rule)
+    spline = orbits.SensorSpline()
+    s = torch.tensor((np.polynomial.legendre.leggauss(64)[0] + 1) / 2)
+    rule = orbits.composite_rule(32, 16)
+    fast = orbits.orbit(spline, V, q0, p0, s, rule)
+    slow = orbits.orbit(spline, V, q0.clone().requires_grad_(), p0, s, rule)
     assert torch.isfinite(fast["T"]).all()
     for key in ("T", "u0", "U"):
         np.testing.assert_allclose(fast[key].numpy(), slow[key].detach().numpy(),

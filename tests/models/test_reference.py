@@ -202,13 +202,14 @@ def test_reference_traonet_trains_in_deepxdes_own_loop():
     assert np.isfinite(history.loss_train).all()
 
 
-def test_predict_warns_off_the_grid_for_the_coupled_reference_decoders():
+def test_predict_runs_the_coupled_reference_decoders_on_the_grid():
     torch.manual_seed(0)
     net = build_model("traonet", "cpu", variant="reference")
     assert net.query_coupled and not build_model("deeponet", "cpu",
                                                   variant="reference").query_coupled
+    V = 2 - 8 * nh.SENSORS * (1 - nh.SENSORS) * np.array([[1.0], [0.6]])
     with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        predict(net, np.zeros((2, 100)), nh.TIMES)
-    with pytest.warns(UserWarning, match="couples the query times"):
-        predict(net, np.zeros((2, 100)), np.linspace(0, 2, 7))
+        warnings.simplefilter("error")  # no warning: off the grid it interpolates the grid
+        q_grid, _ = predict(net, V, nh.TIMES)
+        q_sub, _ = predict(net, V, nh.TIMES[[10, 60]])
+    np.testing.assert_allclose(q_sub, q_grid[:, [10, 60]], rtol=0, atol=1e-12)

@@ -70,7 +70,7 @@ def test_grid_decoder_predictions_do_not_depend_on_the_other_times_asked():
         np.testing.assert_allclose(net((V, t)).numpy(), expected, rtol=0, atol=1e-12)
         alone = net((V, t[1:2]))
     np.testing.assert_allclose(alone.numpy(), expected[:, 1:2], rtol=0, atol=1e-12)
-    with pytest.raises(ValueError, match=r"t ∈ \[0, 2\]; got t from 0 to 2.5"):
+    with pytest.raises(ValueError, match=r"must lie in \[0, 2\]; got values from 0 to 2.5"):
         net((V, torch.tensor([[0.0], [2.5]], dtype=torch.float64)))
 
 

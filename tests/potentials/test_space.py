@@ -1,5 +1,7 @@
 """Tests of BoundedPotentialSpace, the paper's random bounded potentials."""
 
+import contextlib
+import io
 import re
 
 import numpy as np
@@ -9,6 +11,7 @@ from scipy.interpolate import BSpline
 # nh_operators first: it selects DeepXDE's PyTorch backend before deepxde is imported
 from nh_operators import V0, BoundedPotential, BoundedPotentialSpace  # isort: skip
 from nh_operators.potentials.bspline import MAX_CONTROL, clamped_knots  # isort: skip
+from nh_operators._backend import ensure_pytorch_backend  # isort: skip
 from deepxde.data.function_spaces import FunctionSpace  # isort: skip
 
 MAX_GRF = MAX_CONTROL - 2
@@ -168,26 +171,30 @@ def test_kth_potential_does_not_depend_on_batch_size():
     np.testing.assert_array_equal(np.concatenate([ones.random(1) for _ in range(5)]), both[:5])
 
 
-def _batch_at(space, feature, x):
-    return float(space.eval_batch(feature[None, :], np.array([[x]]))[0, 0])
+def _batch_at(space, feature, x, **kw):
+    return space.eval_batch(feature[None, :], np.array([[x]]), **kw)[0, 0]
 
 
-def test_eval_batch_equals_eval_one():
+@pytest.mark.parametrize("dtype", [None, np.float64])
+def test_eval_batch_equals_eval_one(dtype):
     space = BoundedPotentialSpace(seed=9)
     feats = space.random(6)
     xs = np.random.default_rng(0).uniform(0, 1, (40, 1))
-    batch = space.eval_batch(feats, xs)
+    batch = space.eval_batch(feats, xs, dtype=dtype)
     assert batch.shape == (6, 40)
+    assert batch.dtype == (np.float32 if dtype is None else np.float64)
     for k in range(6):
-        one = space.eval_one(feats[k], xs)
-        assert one.shape == (40,)
+        one = space.eval_one(feats[k], xs, dtype=dtype)
+        assert one.shape == (40,) and one.dtype == batch.dtype
         np.testing.assert_array_equal(one, batch[k])
-        # DeepXDE's contract: one point gives a float
-        value = space.eval_one(feats[k], 0.25)
-        assert isinstance(value, float)
-        assert value == _batch_at(space, feats[k], 0.25)
-    # the same as building the potential from its control points
-    np.testing.assert_array_equal(batch, BoundedPotential(*space.controls(feats)).V(xs[:, 0]))
+        # DeepXDE's contract: one point gives a float (a NumPy scalar of the dtype)
+        value = space.eval_one(feats[k], 0.25, dtype=dtype)
+        assert np.ndim(value) == 0 and value.dtype == batch.dtype
+        assert value == _batch_at(space, feats[k], 0.25, dtype=dtype)
+    # the same as building the potential from its control points (float64), rounded
+    exact = BoundedPotential(*space.controls(feats)).V(xs[:, 0])
+    np.testing.assert_array_equal(batch, exact.astype(batch.dtype))
+    np.testing.assert_array_equal(space.potentials(feats).V(xs[:, 0]), exact)  # float64
 
 
 def test_n_grf_and_length_scale_ranges():
@@ -253,3 +260,123 @@ def test_wide_omega_allowed_for_few_points_and_bad_seed_type():
     assert np.nanmin(gaps) >= 0.16 - 1e-15
     with pytest.raises(TypeError, match="seed must be an int, None or a numpy.random.Generator"):
         BoundedPotentialSpace(seed="seven")
+
+
+# ----------------------------------------------------------------- DeepXDE's conventions
+
+dde = ensure_pytorch_backend()
+
+
+@contextlib.contextmanager
+def _default_float(name):
+    """DeepXDE's default float set to ``name`` for the block, then restored (quietly)."""
+    import torch
+
+    precision, torch_dtype = dde.config.real.precision, torch.get_default_dtype()
+    with contextlib.redirect_stdout(io.StringIO()):   # DeepXDE prints the change
+        dde.config.set_default_float(name)
+    try:
+        yield
+    finally:
+        {16: dde.config.real.set_float16, 32: dde.config.real.set_float32,
+         64: dde.config.real.set_float64}[precision]()
+        torch.set_default_dtype(torch_dtype)
+
+
+def _operator_data(space, n_train, n_test):
+    """DeepXDE's TripleCartesianProd from the space alone: G(V) = (V, ∫₀ˣ V) at 51 points.
+
+    Everything goes through ``eval_batch``, in DeepXDE's default float.
+    """
+    from nh_operators import SENSORS
+
+    feats = space.random(n_train + n_test)
+    v = space.eval_batch(feats, SENSORS[:, None])                       # (N, 100)
+    x = np.linspace(0.0, 1.0, 51)[:, None].astype(dde.config.real(np))
+    at_x = space.eval_batch(feats, x)                                    # (N, 51)
+    fine = np.linspace(0.0, 1.0, 2001)
+    vf = space.eval_batch(feats, fine[:, None], dtype=np.float64)
+    integral = np.concatenate([np.zeros((len(feats), 1)), np.cumsum(
+        0.5 * (vf[:, 1:] + vf[:, :-1]) * np.diff(fine), axis=1)], axis=1)[:, ::40]
+    y = np.stack([at_x, integral.astype(at_x.dtype)], axis=-1)          # (N, 51, 2)
+    n = n_train
+    return dde.data.TripleCartesianProd((v[:n], x), y[:n], (v[n:], x), y[n:]), v, y
+
+
+@pytest.mark.parametrize("precision", ["float32", "float64"])
+def test_trains_in_deepxdes_own_loop(precision):
+    import torch
+
+    import nh_operators as nh
+
+    with _default_float(precision):
+        real = dde.config.real(np)
+        data, v, y = _operator_data(BoundedPotentialSpace(seed=3), 48, 16)
+        assert v.dtype == y.dtype == real == np.dtype(precision)
+        with torch.random.fork_rng():
+            torch.manual_seed(0)
+            net = nh.build_model("deeponet", preset="cpu")
+        assert next(net.parameters()).dtype == dde.config.real(torch)
+        model = dde.Model(data, net)
+        model.compile("adam", lr=3e-3)
+        # full batches: no draw from NumPy's global stream, so the numbers are fixed
+        history, _ = model.train(iterations=20, display_every=20, verbose=0)
+    first, last = history.loss_train[0], history.loss_train[-1]
+    assert np.all(np.isfinite(last)) and np.sum(last) < 0.7 * np.sum(first)   # 0.64 → 0.35
+
+
+@pytest.mark.parametrize("xs", [[-0.01, 0.5], [0.2, 1.5], [np.nan]])
+def test_points_outside_the_unit_interval_raise(xs):
+    space = BoundedPotentialSpace(seed=1)
+    feats = space.random(2)
+    bad = np.asarray(xs)[(np.asarray(xs) < 0) | (np.asarray(xs) > 1) | np.isnan(xs)]
+    message = (f"the potentials live on [0, 1] and are not extrapolated; got {bad.size} "
+               f"point(s) outside it, ranging from {bad.min():g} to {bad.max():g}")
+    with pytest.raises(ValueError, match=re.escape(message)):
+        space.eval_batch(feats, np.asarray(xs)[:, None])
+    with pytest.raises(ValueError, match=re.escape(message)):
+        space.eval_one(feats[0], np.asarray(xs))
+    # the ends themselves are fine (V = V0 there)
+    np.testing.assert_allclose(space.eval_batch(feats, np.array([[0.0], [1.0]]),
+                                                dtype=np.float64), V0, rtol=0, atol=1e-13)
+
+
+@pytest.fixture
+def global_seed(monkeypatch):
+    """Set DeepXDE's global seed (as a user would); restore every stream afterwards."""
+    import random
+
+    import torch
+
+    monkeypatch.setattr(dde.config, "random_seed", dde.config.random_seed)
+    np_state, py_state = np.random.get_state(), random.getstate()
+    with torch.random.fork_rng():
+        yield dde.config.set_random_seed
+    np.random.set_state(np_state)
+    random.setstate(py_state)
+
+
+def test_seed_none_follows_deepxdes_global_seed(global_seed):
+    global_seed(5)
+    first = BoundedPotentialSpace().random(6)
+    global_seed(5)
+    second = BoundedPotentialSpace().random(6)
+    np.testing.assert_array_equal(first, second)
+    # the global seed s draws as seed=s does
+    np.testing.assert_array_equal(first, BoundedPotentialSpace(seed=5).random(6))
+    global_seed(6)
+    assert not np.array_equal(BoundedPotentialSpace().random(6), first, equal_nan=True)
+    # read at the first draw, as DeepXDE's spaces draw from the stream seeded then
+    space = BoundedPotentialSpace()
+    global_seed(5)
+    np.testing.assert_array_equal(space.random(6), first)
+    # an explicit seed wins over the global one
+    np.testing.assert_array_equal(BoundedPotentialSpace(seed=31).random(3),
+                                  BoundedPotentialSpace(seed=31).random(3))
+    assert not np.array_equal(BoundedPotentialSpace(seed=31).random(6), first, equal_nan=True)
+
+
+def test_seed_none_without_a_global_seed_is_fresh_entropy(monkeypatch):
+    monkeypatch.setattr(dde.config, "random_seed", None)
+    a, b = BoundedPotentialSpace().random(4), BoundedPotentialSpace().random(4)
+    assert not np.array_equal(a, b, equal_nan=True)

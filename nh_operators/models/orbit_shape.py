@@ -9,18 +9,20 @@ the interval squared that does not accumulate (every panel's sum is the rule's).
 table, increasing in h, is read backwards on a uniform grid of h: between two ends s is
 linear in h, Q = (1 − cos πs)/2, and P = (T / L) |p| with |p| = (dq/ds) / f =
 L (π/2) sin(πs) / f, where 1/f (smooth and non-zero at the turning points) is linear in
-s between the nodes (constant beyond the first and last). So |p| vanishes exactly at the turning points, and the harmonic
-orbit (f constant, s linear in h) comes out exact. What depends only on the rule (the
-ends, cos and sin there, where each end falls between the nodes) is computed once per
-rule (:func:`edge_tables`); the compiled rows take cos and sin of πs from the ends'
-values by the angle-addition formulas with a short series in the small angle, so a row
-costs a cumulative sum and one walk over the grid and the nodes. This is a classical quadrature solve of the orbit
-in the sensor spline; PhaseONet's ``shape="quadrature"`` learns a correction to it (from
-a state on the composite rule, at rest on the period's own Gauss–Legendre rule).
+s between the nodes (constant beyond the first and last). So |p| vanishes exactly at the
+turning points, and the harmonic orbit (f constant, s linear in h) comes out exact. What
+depends only on the rule (the ends, cos and sin there, where each end falls between the
+nodes) is computed once per rule (:func:`edge_tables`); the compiled rows take cos and sin
+of πs from the ends' values by the angle-addition formulas with a short series in the
+small angle, so a row costs a cumulative sum and one walk over the grid and the nodes.
+This is a classical quadrature solve of the orbit in the sensor spline; PhaseONet's
+quadrature start (:class:`~nh_operators.models.phase_start.QuadratureStart`) learns a
+correction to it (from a state on the composite rule, at rest on the period's own
+Gauss–Legendre rule).
 
 :func:`shape_table` is the torch version (any device, differentiable in f and T);
-:func:`._orbit.invert_row` the compiled one (in the module of the compiled quadrature
-that calls it: numba's cache sees changes to a kernel's own file only).
+:func:`.orbit_coordinates.invert_row` the compiled one (in the module of the compiled
+quadrature that calls it: numba's cache sees changes to a kernel's own file only).
 """
 
 import functools
@@ -32,14 +34,21 @@ import torch
 __all__ = ["edge_tables", "harmonic_shape", "shape_table"]
 
 
-def harmonic_shape(grid, dtype=torch.float64, device=None):
+def harmonic_shape(grid: int, dtype: torch.dtype = torch.float64,
+                   device: torch.device | str | None = None) -> tuple[torch.Tensor, torch.Tensor]:
     """The harmonic orbit's (Q, P) on ``grid`` nodes of h ∈ [0, 1/2], each (grid,):
-    (1 − cos 2πh)/2 and π sin 2πh (Q's derivative in h)."""
+    (1 − cos 2πh)/2 and π sin 2πh (Q's derivative in h).
+
+    Example:
+        >>> Q, P = harmonic_shape(3)
+        >>> [round(v, 12) for v in Q.tolist()]
+        [0.0, 0.5, 1.0]
+    """
     h = torch.linspace(0.0, 0.5, grid, dtype=dtype, device=device)
     return (1 - torch.cos(2 * math.pi * h)) / 2, math.pi * torch.sin(2 * math.pi * h)
 
 
-def edge_tables(s, w):
+def edge_tables(s: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
     """A rule's ends β (K + 1,: 0, then the cumulative weights), cos(πβ), sin(πβ), and
     1 / (s_k − s_{k−1}) (K,; entry 0 unused), float64 numpy.
 
@@ -57,7 +66,8 @@ def _edge_tables(s, w):
     return ends, np.cos(np.pi * ends), np.sin(np.pi * ends), gaps
 
 
-def shape_table(f, s, w, T, grid):
+def shape_table(f: torch.Tensor, s: torch.Tensor, w: torch.Tensor, T: torch.Tensor,
+                grid: int) -> tuple[torch.Tensor, torch.Tensor]:
     """(Q, P) of each row on ``grid`` nodes of the half-phase h ∈ [0, 1/2].
 
     Args:

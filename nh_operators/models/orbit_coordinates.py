@@ -5,13 +5,18 @@ of the connected part of {V < E} that holds q0, with period
 T = 2 ∫_a^b dq / sqrt(2 (E − V)); the state sits at the phase u0 = τ0 / T of that orbit
 (τ0 the time from a to q0; u0 = 1 − τ0 / T when p0 < 0). With q = a + L (1 − cos πs)/2,
 L = b − a, the end-point singularities cancel and Gauss–Legendre in s converges fast, as
-in :func:`~nh_operators.models.phaseonet.period_quadrature` for the rest scene
+in :func:`~nh_operators.models.phase_rules.period_quadrature` for the rest scene
 (a = 0, b = 1, E = V0). The turning points are bracketed on a fine grid of the spline and
-bisected to float64 precision. Everything here is a function of the input only, so it
-runs without autograd; PhaseONet's ``initial_state`` option reads the orbit's shape off
-``U = E − V`` at the quadrature nodes. On the CPU the bisection, and the quadrature
-where no gradient flows through the state, run as compiled loops over the rows (numba);
-the torch formulas serve other devices and the flow's Jacobian by autograd.
+bisected to float64 precision.
+
+These are the coordinates :class:`~nh_operators.models.StatePhaseONet` works in: it reads
+the orbit's shape off ``U = E − V`` at fixed nodes and predicts q = a + L Q(h),
+p = ± (L / T) P(h) at the half-phase h. Everything here is a function of the input only.
+On the CPU the bisection, and the quadrature where no gradient flows through the state,
+run as compiled loops over the rows (numba); the torch formulas serve other devices and
+the flow's Jacobian by autograd. (:mod:`nh_operators.solvers` finds periods of any
+potential by adaptive quadrature; this module is the fixed-rule, batched, differentiable
+version the network needs.)
 """
 
 import math
@@ -20,41 +25,59 @@ import numba
 import numpy as np
 import torch
 
-from ._orbit_shape import edge_tables, harmonic_shape, shape_table
+from .._sensors import spline_coefficient_map, spline_matrix
+from .float64_buffers import Float64Buffers
+from .orbit_shape import edge_tables, harmonic_shape, shape_table
 
-__all__ = ["SensorSpline", "invert_rows", "orbit"]
+__all__ = ["NARROW", "SensorSpline", "composite_rule", "invert_rows", "orbit"]
 
 
-class SensorSpline:
+class SensorSpline(Float64Buffers):
     """The not-a-knot cubic spline of m uniform sensor values as constant linear maps.
+
+    Float64 buffers that follow the module's device and never its dtype
+    (:class:`~nh_operators.models.float64_buffers.Float64Buffers`).
 
     Args:
         n_sensors: m.
         fine: points of the uniform bracketing grid (default 512).
+
+    Example:
+        >>> spline = SensorSpline()
+        >>> x = torch.linspace(0, 1, 100, dtype=torch.float64)
+        >>> c = (x ** 3) @ spline.maps()[0]            # a cubic is exact
+        >>> round(spline.at(c[None], torch.tensor([[0.3]], dtype=torch.float64)).item(), 12)
+        0.027
     """
 
-    def __init__(self, n_sensors=100, fine=512):
-        from scipy.interpolate import CubicSpline  # construction only
+    coefficient_map: torch.Tensor
+    grid_map: torch.Tensor
+    grid: torch.Tensor
 
-        x = np.linspace(0.0, 1.0, n_sensors)
-        spline = CubicSpline(x, np.eye(n_sensors), axis=0)
+    def __init__(self, n_sensors: int = 100, fine: int = 512) -> None:
+        super().__init__()
         self.pieces = n_sensors - 1
         # (m, pieces · 4): column 4i + k is piece i's coefficient of dx^(3 − k)
-        self._cpu = (torch.tensor(np.transpose(spline.c, (2, 1, 0)).reshape(n_sensors, -1)),
-                     torch.tensor(spline(np.linspace(0.0, 1.0, fine)).T),
-                     torch.linspace(0.0, 1.0, fine, dtype=torch.float64))
-        self._on = {}
+        self.constant("coefficient_map", spline_coefficient_map(n_sensors))
+        self.constant("grid_map", spline_matrix(np.linspace(0.0, 1.0, fine), n_sensors).T)
+        self.constant("grid", torch.linspace(0.0, 1.0, fine, dtype=torch.float64))
 
-    def maps(self, device):
-        """(coefficient map (m, 4·pieces), grid map (m, fine), grid (fine,)) on device."""
-        if device not in self._on:
-            self._on[device] = tuple(a.to(device) for a in self._cpu)
-        return self._on[device]
+    def maps(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(coefficient map (m, 4·pieces), grid map (m, fine), grid (fine,)), float64."""
+        return self.coefficient_map, self.grid_map, self.grid
 
-    def at(self, coefficients, x, derivative=0):
-        """Row i's spline (or its second derivative) at the points x[i]: coefficients
-        (B, 4·pieces) from ``V @ maps()[0]``, x (B, K) → (B, K); outside [0, 1] the end
-        pieces go on."""
+    def at(self, coefficients: torch.Tensor, x: torch.Tensor,
+           derivative: int = 0) -> torch.Tensor:
+        """Row i's spline (or its first or second derivative) at the points x[i].
+
+        Args:
+            coefficients: (B, 4·pieces) from ``V @ maps()[0]``.
+            x: (B, K) points; outside [0, 1] the end pieces go on.
+            derivative: 0, 1 or 2.
+
+        Returns:
+            (B, K).
+        """
         i = torch.floor(x * self.pieces).clamp_(0, self.pieces - 1)
         dx = x - i / self.pieces
         index = (i.long() * 4)[..., None] + torch.arange(4, device=x.device)
@@ -97,9 +120,8 @@ def _brackets(spline, coefficients, values, grid, q0, E, steps, compiled=None):
     if compiled is None:
         compiled = coefficients.device.type == "cpu"
     if compiled:
-        out = _brackets_compiled(*(a.detach().numpy() for a in (coefficients, values, grid,
-                                                                 q0, E)),
-                                 steps, spline.pieces)
+        c, v, g, q, e = (a.detach().numpy() for a in (coefficients, values, grid, q0, E))
+        out = _brackets_compiled(c, v, g, q, e, steps, spline.pieces)
         return tuple(torch.from_numpy(o) for o in out)
     n = grid.numel()
     inside = values < E[:, None]
@@ -190,8 +212,8 @@ def _integrand(c, pieces, a, L, E, x):
 def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid, ends, cos_e,
                          sin_e, gaps):
     """T, the phase before its sign, U at ``nodes``, s0 of :func:`orbit`, and with
-    ``grid`` > 0 the computed shape (Q, P) of :func:`._orbit_shape.shape_table` (with the
-    rule's :func:`._orbit_shape.edge_tables`), row by row (the same formulas; libm's cos,
+    ``grid`` > 0 the computed shape (Q, P) of :func:`.orbit_shape.shape_table` (with the
+    rule's :func:`.orbit_shape.edge_tables`), row by row (the same formulas; libm's cos,
     sin and sqrt instead of torch's)."""
     rows, n_nodes, n_rule = a.shape[0], nodes.shape[0], s.shape[0]
     T, phase, s0s = np.empty(rows), np.empty(rows), np.empty(rows)
@@ -222,8 +244,8 @@ def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid, e
 
 @numba.njit(cache=True, nogil=True)
 def invert_row(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P):
-    """:func:`._orbit_shape.shape_table` for one row, into Q and P (grid,), with the
-    rule's :func:`._orbit_shape.edge_tables`; cos and sin of πs from their values at the
+    """:func:`.orbit_shape.shape_table` for one row, into Q and P (grid,), with the
+    rule's :func:`.orbit_shape.edge_tables`; cos and sin of πs from their values at the
     end below s by angle addition (series of the small angle to its 7th power: exact to
     about 1e-13 for the intervals of 32 or more Gauss–Legendre nodes)."""
     K, grid = f.shape[0], Q.shape[0]
@@ -273,29 +295,43 @@ def invert_rows(f, s, w, T, ends, cos_e, sin_e, gaps, grid):
 NARROW = 1e-4
 
 
-def composite_rule(panels, nodes):
-    """Composite Gauss–Legendre on [0, 1]: ``panels`` equal panels of ``nodes`` nodes;
-    (s, w), each (panels · nodes,), float64 tensors."""
+def composite_rule(panels: int, nodes: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Composite Gauss–Legendre on [0, 1]: ``panels`` equal panels of ``nodes`` nodes.
+
+    Args:
+        panels: number of equal panels.
+        nodes: Gauss–Legendre nodes per panel.
+
+    Returns:
+        (s, w), each (panels · nodes,), float64 tensors; the weights sum to 1.
+
+    Example:
+        >>> s, w = composite_rule(4, 3)
+        >>> round(float((s ** 5) @ w), 14)   # exact for degree ≤ 5: ∫ s⁵ = 1/6
+        0.16666666666667
+    """
     x, v = np.polynomial.legendre.leggauss(nodes)
     left = np.arange(panels)[:, None] / panels
     s = (left + (x[None] + 1) / (2 * panels)).reshape(-1)
     return torch.tensor(s), torch.tensor(np.tile(v / (2 * panels), panels))
 
 
-def orbit(spline, V, q0, p0, s, w, steps=48, rule=None, shape_grid=0):
+def orbit(spline: SensorSpline, V: torch.Tensor, q0: torch.Tensor, p0: torch.Tensor,
+          nodes: torch.Tensor, rule: tuple[torch.Tensor, torch.Tensor], steps: int = 48,
+          shape_grid: int = 0) -> dict[str, torch.Tensor]:
     """The orbit through (q0, p0) in the sensor spline of each row's V.
 
     Args:
-        spline: a :class:`SensorSpline` for V's sensor count.
+        spline: a :class:`SensorSpline` for V's sensor count, on V's device.
         V: (B, m) sensor values; q0, p0: (B,) states (all float64).
-        s, w: (K,) Gauss–Legendre nodes and weights on [0, 1] (float64).
+        nodes: (K,) points s ∈ (0, 1) where U = E − V is read (float64).
+        rule: (s, w) of the quadrature of T and u0, each (R,) float64 on [0, 1]; a
+            composite rule (:func:`composite_rule`) resolves the slow passage over a
+            barrier top that an orbit just above a separatrix makes inside [a, b].
         steps: bisection steps per turning point (48: below float64's resolution of a
             grid cell).
-        rule: (s, w) of the quadrature of T and u0 (default ``(s, w)``); a composite rule
-            (:func:`composite_rule`) resolves the slow passage over a barrier top that an
-            orbit just above a separatrix makes inside [a, b].
         shape_grid: with a positive count, also the orbit's shape computed on that many
-            nodes of the half-phase (:mod:`._orbit_shape`, on the rule of T).
+            nodes of the half-phase (:mod:`.orbit_shape`, on ``rule``).
 
     Returns:
         dict with a, b, E, T, u0 of shape (B,) and U (B, K) = E − V at the nodes
@@ -304,33 +340,41 @@ def orbit(spline, V, q0, p0, s, w, steps=48, rule=None, shape_grid=0):
         u0 from q = a + L (1 − cos 2πu)/2, and U ∝ sin²(πs) scaled by V″ L² / 8. With
         ``shape_grid``, also Q and P (B, shape_grid): q = a + L Q(h), |p| = (L / T) P(h)
         at the half-phase h (the harmonic orbit's for a narrow one).
+
+    Example:
+        >>> x = torch.linspace(0, 1, 100, dtype=torch.float64)
+        >>> V = (2 - 8 * x * (1 - x))[None]                 # harmonic, ω = 4
+        >>> zero = torch.zeros(1, dtype=torch.float64)
+        >>> o = orbit(SensorSpline(), V, zero, zero, composite_rule(1, 8)[0],
+        ...           composite_rule(4, 16))
+        >>> round(o["T"].item(), 10), round(o["b"].item(), 10)   # π / 2, the far wall
+        (1.5707963268, 1.0)
     """
-    coef_map, grid_map, grid = spline.maps(V.device)
+    coef_map, grid_map, grid = spline.maps()
     coefficients = V @ coef_map
     E = 0.5 * p0 * p0 + spline.at(coefficients, q0[:, None])[:, 0]
     a, b = _turning_points(spline, coefficients, V @ grid_map, grid, q0, E, steps)
     L = (b - a).clamp(min=1e-12)
 
-    def integrand(nodes):   # (B, K) nodes in s ∈ [0, 1] → (dq/ds) / |p|, and E − V
-        q = a[:, None] + L[:, None] * (1 - torch.cos(math.pi * nodes)) / 2
+    def integrand(x):   # (B, K) points in s ∈ [0, 1] → (dq/ds) / |p|, and E − V
+        q = a[:, None] + L[:, None] * (1 - torch.cos(math.pi * x)) / 2
         U = (E[:, None] - spline.at(coefficients, q)).clamp(min=1e-300)
-        jac = L[:, None] * (math.pi / 2) * torch.sin(math.pi * nodes)
+        jac = L[:, None] * (math.pi / 2) * torch.sin(math.pi * x)
         return jac * torch.rsqrt(2 * U), U
 
-    nodes = s
-    rule_s, rule_w = (s, w) if rule is None else rule
+    rule_s, rule_w = rule
     needs_grad = torch.is_grad_enabled() and any(x.requires_grad for x in (V, q0, p0))
     if V.device.type == "cpu" and not needs_grad:
         # a function of the input alone: one compiled pass instead of (B, K) tensors
-        out = _quadrature_compiled(*(x.detach().numpy() for x in (coefficients, a, b, E, q0,
-                                                                  nodes, rule_s, rule_w)),
-                                   spline.pieces, shape_grid,
-                                   *edge_tables(rule_s.numpy(), rule_w.numpy()))
+        c, a_, b_, E_, q0_, s_, rs, rw = (x.detach().numpy() for x in (
+            coefficients, a, b, E, q0, nodes, rule_s, rule_w))
+        ends, cos_e, sin_e, gaps = edge_tables(rs, rw)
+        out = _quadrature_compiled(c, a_, b_, E_, q0_, s_, rs, rw, spline.pieces, shape_grid,
+                                   ends, cos_e, sin_e, gaps)
         T, phase, U, s0, Q, P = (torch.from_numpy(x) for x in out)
     else:
-        f, U = integrand(s[None].expand(len(V), -1))
-        if rule is not None:
-            f, _ = integrand(rule_s[None].expand(len(V), -1))
+        _, U = integrand(nodes[None].expand(len(V), -1))
+        f, _ = integrand(rule_s[None].expand(len(V), -1))
         T = 2 * (f @ rule_w)
         if shape_grid:
             Q, P = shape_table(f, rule_s, rule_w, T, shape_grid)
