@@ -75,6 +75,11 @@ def single_threaded():
     call waits for a time slice on every core: a batch-1 solve took 16 ms instead of
     0.5 ms (numba) and 80 ms instead of 2.4 ms (torch) on this 2-core machine while a
     training run was going.
+
+    Not thread-safe: the counts are process-wide, so torch and numba work of other
+    threads also runs on one thread inside the block, and two blocks that overlap in
+    different threads restore the counts in the order they end (the first to end puts
+    back what it saw, possibly 1, until the other ends).
     """
     import numba
 

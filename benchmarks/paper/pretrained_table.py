@@ -97,7 +97,8 @@ def calibration_table():
     values, for calls of the whole orbit and early calls (latest time ≤ 0.5); the median
     calibrated estimate / true on the in-distribution family (calls of the whole orbit);
     one network solve's time."""
-    from nh_operators.solving import SENSOR_FAMILIES
+    from nh_operators.solving import Calibration, CallKind, InputKind
+    from nh_operators.solving.acceptance import SENSOR_FAMILIES
 
     print("\n| model | admitted: " + " / ".join(FAMILIES) + " | factors: exact | "
           "sensor values | early, exact | early, sensor values | median estimate / true | "
@@ -108,16 +109,19 @@ def calibration_table():
         if not path.is_file():
             print(f"| {name} | not calibrated |" + " |" * 6)
             continue
-        c = json.loads(path.read_text())
-        fams = c.get("families", {})
+        c = Calibration.read(path)
+        fams = c.families
         admitted = " / ".join(f"{fams[f]['admitted']}/{fams[f]['drawn']}" if f in fams
                               else "–" for f in FAMILIES)
-        factors = [", ".join(f"{x:.3g}" for x in c[k]) if k in c else "–"
-                   for k in ("factors", "factors_sensors", "factors_early",
-                             "factors_sensors_early")]
+        factors = [", ".join(f"{x:.3g}" for x in c.factors[k]) if k in c.factors else "–"
+                   for k in ((InputKind.BSPLINE, CallKind.PLAIN),
+                             (InputKind.SENSORS, CallKind.PLAIN),
+                             (InputKind.BSPLINE, CallKind.EARLY),
+                             (InputKind.SENSORS, CallKind.EARLY))]
         assert set(SENSOR_FAMILIES) == set(FAMILIES)
         print(f"| {name} | {admitted} | " + " | ".join(factors)
-              + f" | {c['estimate_over_true_median']:.3g} | {1e6 * c['neural_seconds']:.0f} |")
+              + f" | {c.info['estimate_over_true_median']:.3g} | "
+              f"{1e6 * c.neural_seconds:.0f} |")
 
 
 def main():

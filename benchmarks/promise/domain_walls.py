@@ -25,8 +25,8 @@ import numpy as np
 import nh_operators as nh
 from nh_operators.data import load_dataset
 from nh_operators.potentials import GENERATOR_DOMAIN, in_domain, ood_potentials, wall_forces
-from nh_operators.solving import calibrated, network_domain
-from nh_operators.solving.auto_solve import _model, neural_raw
+from nh_operators.solving import InputKind, load, network_domain
+from nh_operators.solving.network_pass import neural_raw
 
 
 def main():
@@ -52,14 +52,15 @@ def main():
     domain = dict(network_domain(args.model))
     rule = domain.pop("min_wall_force")
     caught = np.flatnonzero(in_domain(V, domain) & (walls < rule))
-    cal = _model(args.model).calibration
+    cal = load(args.model).calibration
     worst = (0.0, None, None, 0.0)  # ratio, family, times, true L_tot
     for i in caught:
         for t in (nh.TIMES, np.array([0.4]), np.array([0.8]), np.array([1.6])):
             q, p, raw = neural_raw(args.model, V[i], "sensors", t)
             q_ref, p_ref = nh.integrate_sensors(V[i], t, substeps=512, check_resolution=False)
             true = 0.5 * (np.mean((q - q_ref) ** 2) + np.mean((p - p_ref) ** 2))
-            ratio = true / float(calibrated(raw, cal, "sensors", t.max() <= 0.5))
+            ratio = true / float(cal.calibrated_calls(raw, InputKind.SENSORS,
+                                                      t.max() <= 0.5))
             if ratio > worst[0]:
                 worst = (ratio, pots[i].name, t.max() if t.size == 1 else "the grid", true)
     print(f"{args.model}: {caught.size} of them inside its domain but for the wall rule; "

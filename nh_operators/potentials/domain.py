@@ -87,12 +87,11 @@ def domain_violations(V, domain=None):
          f"curves more sharply than {source} (|V''| ≤ {d['max_curvature']:g} "
          "at the sensors)", "max |Δ²V/Δq²|"),
     ]
-    if "min_wall_force" in d:  # domains fitted before the bound (older domain.json) lack it
-        bound = d["min_wall_force"]
-        checks.append((stats["wall_force"], lambda x: _weak_walls(x, bound), np.argmin,
-                       f"has a wall whose force does not point inward as firmly as in "
-                       f"{source} (-V'(0) and V'(1) > {bound:.3g}; from rest there a "
-                       "particle stays or leaves [0, 1])", "weakest wall force"))
+    bound = d["min_wall_force"]
+    checks.append((stats["wall_force"], lambda x: _weak_walls(x, bound), np.argmin,
+                   f"has a wall whose force does not point inward as firmly as in "
+                   f"{source} (-V'(0) and V'(1) > {bound:.3g}; from rest there a "
+                   "particle stays or leaves [0, 1])", "weakest wall force"))
     messages = []
     for values, bad, pick, text, what in checks:
         hits = np.flatnonzero(bad(values))
@@ -173,9 +172,8 @@ def in_domain(V, domain=None, *, stats=None):
     lo, hi = d["V_range"]
     ok = ((stats["min"] >= lo - 1e-9) & (stats["max"] <= hi + 1e-9)
           & (stats["min"] <= d["min_V_at_most"]) & (stats["slope"] <= d["max_slope"])
-          & (stats["curvature"] <= d["max_curvature"]))
-    if "min_wall_force" in d:
-        ok &= ~_weak_walls(stats["wall_force"], d["min_wall_force"])
+          & (stats["curvature"] <= d["max_curvature"])
+          & ~_weak_walls(stats["wall_force"], d["min_wall_force"]))
     return ok if V.ndim == 2 else ok[0]
 
 
@@ -220,4 +218,4 @@ def fit_domain(V, *, slack=0.25, source="its training data"):
             "min_V_at_most": min(V0, highest_min + slack * max(V0 - highest_min, 0.0)),
             "max_curvature": (1 + slack) * float(stats["curvature"].max()),
             "min_wall_force": max(float(stats["wall_force"].min()), 0.0) / (1 + slack),
-            "source": source, "rows": int(len(V))}
+            "source": source, "rows": len(V)}

@@ -46,6 +46,10 @@ def _check_times(t):
     return t
 
 
+#: The times check, for callers outside this module: (M,) float64, or a ValueError.
+check_times = _check_times
+
+
 def _step_grid(t, substeps, interval):
     """Sorted query times, step size and number of steps covering [0, max t]."""
     if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):

@@ -1,260 +1,320 @@
-"""Calibrate a shipped model for :func:`~nh_operators.solve`: its estimate's factor and
-the costs that ``method="auto"`` weighs (``nh-operators calibrate``).
+"""A shipped network's calibration as one typed, versioned object: :class:`Calibration`.
 
-The calibration set must be labelled potentials from neither the training set (seed
-8407) nor the test set (seed 42); the shipped calibrations use
-``nh-operators generate --size 2000 --seed 2718``. The timings are medians on the
-machine that calibrates (recorded in the file): ``auto`` compares them only with each
-other, so a faster machine shifts both alike.
+What it holds (measured by :func:`~nh_operators.solving.calibrate_pretrained`):
+
+* **factor tables**, one per (:class:`~.kinds.InputKind`, :class:`~.kinds.CallKind`): the
+  calibrated estimate is ``factors[k] · raw`` for a raw estimate in bin k, the bins split
+  at ``limits`` (the raw estimate is first order in the error: as the error grows, its
+  ratio to the truth spreads more). Exact potentials (B-splines and formulas) share one
+  table; sensor values, whose truth is their spline's trajectory, have their own.
+* **acceptance quantiles**: the calibrated estimate on each calibration family at
+  ``probabilities``, from which :meth:`Calibration.acceptance_rate` reads how often an
+  estimate meets a tolerance.
+* **costs**: a call's and a ``solve_many`` row's seconds, for the network and for the
+  classical solve per input kind and tolerance (and up to
+  :data:`~nh_operators.solving.costs.SHORT_HORIZON`).
+
+On disk it is ``weights/NAME/calibration.json`` in format :data:`FORMAT`;
+:meth:`Calibration.from_json` migrates a file of an older format here, and only here.
+
+To add a field: add it to :class:`Calibration`, read it in :meth:`Calibration.from_json`
+(with its migration from an older format, if any), write it in :meth:`Calibration.to_json`,
+and fill it in :func:`~nh_operators.solving.calibrate.calibrate_factors` or
+:func:`~nh_operators.solving.calibrate.measure_costs`.
 """
 
+from __future__ import annotations
+
 import json
-import time
-import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .._constants import SENSORS, TIMES
-from ..potentials import PHYSICAL_POTENTIALS
-from ..training import write_atomic
-from .auto_solve import _model, solve
-from .catalog import CALIBRATION
-from .costs import SHORT_HORIZON
-from .acceptance import CONFIDENCE, SENSOR_FAMILIES, bin_factors, calibrated, upper_quantile
-from .refine import refines
-from .samples import calibration_families
+from .._constants import TIMES
+from .acceptance import SENSOR_FAMILIES
+from .costs import horizon_share
+from .kinds import CallKind, InputKind
 
-__all__ = ["calibrate_pretrained", "CLASSICAL_TOLS", "QUANTILE",
-           "CONFIDENCE", "LIMITS"]
+__all__ = ["FORMAT", "Calibration", "costs_from_v1", "factors_from_v1"]
 
-#: The quantile of true / raw estimate that the factor bounds (with :data:`CONFIDENCE`).
-QUANTILE = 0.999
+#: The format version :meth:`Calibration.to_json` writes.
+FORMAT = 2
 
-#: Raw estimates are calibrated in bins split at these values (L_tot units; 1e-3 is an
-#: RMS error of 3 % of the orbit's size): the estimate is first order in the error, so
-#: its ratio to the truth spreads more as the error grows, and each bin gets its factor.
-LIMITS = (1e-3, 1e-2)
-
-#: Tolerances at which the classical solve's time is measured.
-CLASSICAL_TOLS = [10.0 ** -k for k in range(1, 13)]
+_V1_CALLS = {CallKind.PLAIN: "", CallKind.EARLY: "_early", CallKind.FINE: "_fine"}
+_V1_KINDS = {InputKind.BSPLINE: "", InputKind.SENSORS: "_sensors",
+             InputKind.FORMULA: "_formula"}
+_V1_COSTS = ("neural_seconds", "neural_seconds_batched", "classical_tols", "device")
 
 
-def _median_seconds(fn, items, repeats=3):
-    times = []
-    for item in items:
-        best = np.inf
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            fn(item)
-            best = min(best, time.perf_counter() - t0)
-        times.append(best)
-    return float(np.median(times))
+def _frozen(values: Any) -> np.ndarray:
+    out = np.array(values, dtype=np.float64)
+    out.flags.writeable = False
+    return out
 
 
-_TIMINGS = {}
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """A network's calibrated estimate, how often it is accepted, and what it costs.
 
+    Attributes:
+        limits: raw-estimate bin edges (K - 1,).
+        factors: factor per bin (K,), by (input kind, call kind); B-splines and formulas
+            share the exact table; a network that does not refine has no ``FINE`` one.
+        probabilities: the levels (P,) of every ``estimate_quantiles``.
+        estimate_quantiles: the calibrated estimate on the in-distribution family of
+            exact potentials at ``probabilities`` (calls of the whole orbit).
+        families: per calibration family, as measured (``drawn``, ``admitted``, per-bin
+            ``bins``/``bins_early``/``bins_fine`` bounds and ``estimate_quantiles``).
+        neural_seconds, neural_seconds_batched: one call's, and one ``solve_many``
+            row's, seconds of the network with its estimate.
+        classical_tols: tolerances (T,) of the classical timings.
+        classical: per input kind, ``"full"`` (one call to t = 2), ``"short"`` (one call
+            to :data:`~nh_operators.solving.costs.SHORT_HORIZON`) and, for the kinds
+            ``solve_many`` batches, ``"batched"`` (per row): seconds (T,).
+        info: the rest, kept as measured (``quantile``, ``confidence``, ``n``,
+            ``L_quantiles``, ``estimate_over_true_median``, ``dataset_checksum``,
+            ``ood_seed``, ``initial_state``, ``device``).
+        version: the format it was read from (:data:`FORMAT` once written again).
 
-def _classical_timings(key, pots):
-    """The classical solve's median seconds at each of :data:`CLASSICAL_TOLS` on ``pots``
-    (exact), their sensor values and three smooth formulas, on the whole grid and (the
-    ``_short`` fields) on its times up to :data:`~.costs.SHORT_HORIZON`, each a call of
-    :func:`~nh_operators.solve` as a user makes it; measured once per process and dataset
-    (``key``), as they do not depend on the network."""
-    if key not in _TIMINGS:
-        sensors = [pot.V(SENSORS) for pot in pots]
-        formulas = list(PHYSICAL_POTENTIALS.values())[:3]  # smooth: SHO, double well, Morse
-        short = TIMES[TIMES <= SHORT_HORIZON + 1e-12]
-        _TIMINGS[key] = {
-            field + suffix: [_median_seconds(
-                lambda pot: solve(pot, times, tol=tol, method="rk4"), items)
-                for tol in CLASSICAL_TOLS]
-            for field, items in (("classical_seconds", pots),
-                                 ("classical_seconds_sensors", sensors),
-                                 ("classical_seconds_formula", formulas))
-            for suffix, times in (("", TIMES), ("_short", short))}
-    return _TIMINGS[key]
-
-
-def calibrate_pretrained(name, dataset, *, other=None, n_timing=30, n_ood=600,
-                         ood_seed=2719, quantile=QUANTILE, timings_only=False,
-                         keep_timings=False, write=True):
-    """Calibrate shipped model ``name`` and write its calibration file.
-
-    The factor makes ``factor · raw`` at the asked times
-    (:func:`~nh_operators.solving.estimate_at`) an upper bound of the true L_tot per
-    call: it is the largest, over the families of :func:`calibration_families` whose
-    inputs are exact potentials, of a bootstrap upper bound (confidence
-    :data:`CONFIDENCE`) on the ``quantile`` of true / raw. The raw estimate is first
-    order in the error, so samples are bounded per bin of raw (split at :data:`LIMITS`),
-    each bin with its factor, never smaller than a lower bin's
-    (:func:`~nh_operators.solving.calibrated`). Sensor values, whose truth is their
-    spline's trajectory, get the same bound over the families of sensor values
-    (:mod:`~nh_operators.solving.acceptance`).
-
-    Args:
-        name: a shipped model (:func:`~nh_operators.available_pretrained`).
-        dataset: labelled :class:`~nh_operators.data.Dataset` of the model's own
-            distribution, from neither its training nor its test seed, or its path.
-        other: potentials of the other generator (a batched
-            :class:`~nh_operators.BoundedPotential`), or None.
-        n_timing: potentials timed (batch 1; best of 3 each, median over them).
-        n_ood, ood_seed: out-of-distribution potentials (a seed other than the
-            contract tests').
-        quantile: the quantile of true / raw bounded.
-        timings_only: keep the stored factor; measure the network's and the classical
-            solve's times again (on a quiet machine: ``auto`` compares them).
-        keep_timings: calibrate the factors again and keep the stored times (measured
-            on a quiet machine), e.g. on a busy one.
-        write: write ``weights/NAME/calibration.json`` (atomically).
-
-    Returns:
-        the calibration dict: ``limits``, ``factors`` (one per bin, over the families
-        of exact potentials: :func:`bin_factors`), ``factor`` (the first bin's),
-        ``factors_sensors`` (the same over the families of sensor values), each also
-        ``_early`` (early calls) and, for a network that refines, ``_fine``, ``quantile``,
-        ``confidence``, ``families`` (per family: drawn, admitted, median and largest
-        true / raw, and per bin the count and the bounded quantile),
-        ``estimate_over_true_median`` (in distribution),
-        ``estimate_quantiles`` / ``L_quantiles`` (calibrated estimate and true L_tot on
-        the in-distribution family, at ``probabilities``), ``neural_seconds``,
-        ``classical_tols`` / ``classical_seconds`` (B-spline, sensors, formula; each also
-        ``_short``, up to :data:`~.costs.SHORT_HORIZON`), their per-row costs inside
-        ``solve_many`` (``neural_seconds_batched``, ``classical_seconds_batched``,
-        ``classical_seconds_sensors_batched``) and ``device``.
+    Example:
+        >>> cal = Calibration.from_json(EXAMPLE)
+        >>> cal.calibrated(np.array([1e-4, 5e-3]), InputKind.SENSORS, CallKind.PLAIN).tolist()
+        [5e-05, 0.005]
+        >>> cal.acceptance_rate(1e-4, InputKind.BSPLINE)
+        0.5
     """
-    from ..data import load_dataset
-    from .catalog import reads_state, resolve_pretrained
 
-    name = resolve_pretrained(name)
-    if not hasattr(dataset, "V"):
-        dataset = load_dataset(dataset)
-    model = _model(name)
-    if timings_only:  # keep the factor and families, measure the costs again
-        result = dict(model.calibration)
-        _timings(result, name, dataset, n_timing)
-        return _written(result, name, model, write)
-    fams = calibration_families(name, dataset, other=other, n_ood=n_ood, ood_seed=ood_seed)
-    result = {"quantile": quantile, "confidence": CONFIDENCE, "dataset_checksum":
-              dataset.checksum, "ood_seed": ood_seed, "limits": list(LIMITS),
-              "families": {}, "initial_state": reads_state(name)}
-    fine = refines(name)
-    for fam, (true, raw, drawn, early, true_fine, raw_fine) in fams.items():
-        ratio = true / np.maximum(raw, 1e-300)
-        entry = {"drawn": drawn, "admitted": int(true.size)}
-        if true.size:
-            entry.update(ratio_median=float(np.median(ratio)), ratio_max=float(ratio.max()))
-        # the estimate on the grid (calls of the whole orbit, early calls) and, for a
-        # network that refines, on the finer grid (:mod:`.refine`; not for early calls)
-        for key, calls, t_l, r_l in (("bins", ~early, true, raw),
-                                     ("bins_early", early, true, raw),
-                                     ("bins_fine", ~early & fine, true_fine, raw_fine)):
-            entry[key] = []
-            where = np.searchsorted(LIMITS, r_l, side="left")  # bin k: (limit k-1, limit k]
-            for k in range(len(LIMITS) + 1):
-                pick = (where == k) & calls
-                cell = {"n": int(pick.sum())}
-                if pick.any():
-                    cell["bound"] = upper_quantile(t_l[pick] / np.maximum(r_l[pick], 1e-300),
-                                                   quantile)
-                entry[key].append(cell)
-        result["families"][fam] = entry
-    families = result["families"]
-    sensor = set(SENSOR_FAMILIES.values())
-    for suffix, pick in (("", lambda fam: fam not in sensor), ("_sensors", sensor.__contains__)):
-        for calls in ("", "_early") + (("_fine",) if fine else ()):
-            factors = bin_factors((f for fam, f in families.items() if pick(fam)),
-                                  "bins" + calls)
-            if factors is None:
-                raise ValueError(f"{name}: no calibration sample for "
-                                 f"factors{suffix}{calls} (no input inside the network's "
-                                 "domain, or too few calls of that kind)")
-            result["factors" + suffix + calls] = factors
-    result["factor"] = result["factors"][0]
-    true, raw, _, early, *_ = fams["in distribution"]
-    n = int(true.size)
-    true, raw = true[~early], raw[~early]  # what a call of the whole orbit is accepted on
-    estimate = calibrated(raw, result)
-    probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
-    for fam, (f_true, f_raw, _, f_early, *_) in fams.items():  # how often each is accepted
-        if (~f_early).any():
-            kind = "sensors" if fam in SENSOR_FAMILIES.values() else "exact"
-            families[fam]["estimate_quantiles"] = [float(v) for v in np.quantile(
-                calibrated(f_raw[~f_early], result, kind), probabilities)]
-    result.update(n=n, probabilities=probabilities,
-                  estimate_quantiles=[float(v) for v in np.quantile(estimate, probabilities)],
-                  L_quantiles=[float(v) for v in np.quantile(true, probabilities)],
-                  estimate_over_true_median=float(np.median(estimate / np.maximum(true,
-                                                                                 1e-300))))
-    if keep_timings:
-        result.update({key: value for key, value in model.calibration.items()
-                       if key.startswith(("neural_seconds", "classical_")) or key == "device"})
-    else:
-        _timings(result, name, dataset, n_timing)
-    return _written(result, name, model, write)
+    limits: np.ndarray
+    factors: Mapping[tuple[InputKind, CallKind], np.ndarray]
+    probabilities: np.ndarray
+    estimate_quantiles: np.ndarray
+    families: Mapping[str, Mapping[str, Any]]
+    neural_seconds: float
+    neural_seconds_batched: float
+    classical_tols: np.ndarray
+    classical: Mapping[InputKind, Mapping[str, np.ndarray]]
+    info: Mapping[str, Any] = field(default_factory=dict)
+    version: int = FORMAT
+
+    # -- the estimate -------------------------------------------------------------------
+    def calibrated(self, raw: np.ndarray | float, kind: InputKind,
+                   call: CallKind = CallKind.PLAIN) -> np.ndarray:
+        """The calibrated estimate of raw estimates ``raw`` (any shape) for an input of
+        ``kind`` and calls of kind ``call``: ``factors[k] · raw`` for raw in bin k;
+        infinite for ``FINE`` calls of a network with no such factors.
+
+        Raises:
+            ValueError: ``kind`` or ``call`` not one of the enums.
+        """
+        kind, call = InputKind(kind), CallKind(call)
+        raw = np.asarray(raw, dtype=np.float64)
+        factors = self.factors.get((kind, call))
+        if factors is None:
+            return np.full(raw.shape, np.inf)
+        return factors[np.searchsorted(self.limits, raw, side="left")] * raw
+
+    def calibrated_calls(self, raw: np.ndarray, kind: InputKind,
+                         early: np.ndarray | bool) -> np.ndarray:
+        """:meth:`calibrated` for calls that are ``early`` or not, one flag per raw
+        estimate (or one for all)."""
+        out = self.calibrated(raw, kind, CallKind.PLAIN)
+        if np.any(early):
+            out = np.where(early, self.calibrated(raw, kind, CallKind.EARLY), out)
+        return out
+
+    # -- how often it is accepted -------------------------------------------------------
+    def acceptance_rate(self, tol: float, kind: InputKind, family: str | None = None,
+                        *, cautious: bool = False) -> float:
+        """Share of a calibration family whose calibrated estimate is ≤ tol
+        (interpolated between the stored quantiles in log scale).
+
+        Args:
+            tol: the tolerance (> 0).
+            kind: the input kind; sensor values read the sensor family that mirrors
+                ``family`` (:data:`~nh_operators.solving.acceptance.SENSOR_FAMILIES`).
+            family: an exact family's name (default: in distribution).
+            cautious: the smaller of the share in distribution and on the other
+                generator's potentials that the network's domain admits: what a single
+                call, which cannot tell which generator its input came from, may count
+                on.
+        """
+        kind = InputKind(kind)
+        if cautious:
+            shares = [self.acceptance_rate(tol, kind)]
+            other = "other distribution"
+            if not kind.exact:
+                other = SENSOR_FAMILIES[other]
+            if "estimate_quantiles" in self.families.get(other, {}):
+                shares.append(self._share(tol, other))
+            return min(shares)
+        if not kind.exact:
+            family = SENSOR_FAMILIES[family or "in distribution"]
+        return self._share(tol, family)
+
+    def _share(self, tol: float, family: str | None) -> float:
+        quantiles = (self.estimate_quantiles if family is None
+                     else self.families[family]["estimate_quantiles"])
+        est = np.log(np.maximum(quantiles, 1e-300))
+        return float(np.interp(np.log(tol), est, self.probabilities, left=0.0, right=1.0))
+
+    # -- what it costs ------------------------------------------------------------------
+    def neural_seconds_per(self, batched: bool = False) -> float:
+        """The network's seconds: one call's, or one ``solve_many`` row's."""
+        return self.neural_seconds_batched if batched else self.neural_seconds
+
+    def classical_seconds(self, tol: float, kind: InputKind, batched: bool = False,
+                          horizon: float | None = None) -> float:
+        """The classical solve's seconds at ``tol`` for an input ``kind``: one call's, or
+        one ``solve_many`` row's (``batched``; formulas are solved one by one there, so
+        theirs is one call's), up to the latest time ``horizon`` (default: t = 2).
+
+        Between the short and the whole grid's timing the cost is taken linear in the
+        horizon (:func:`~nh_operators.solving.costs.horizon_share`).
+        """
+        table = self.classical[InputKind(kind)]
+        tols = np.log10(self.classical_tols)
+        seconds = table["batched"] if batched and "batched" in table else table["full"]
+        at = float(np.interp(-np.log10(tol), -tols, seconds))
+        if horizon is None or horizon >= TIMES[-1]:
+            return at
+        full, short = (float(np.interp(-np.log10(tol), -tols, table[f]))
+                       for f in ("full", "short"))
+        return at * horizon_share(short / full, horizon)
+
+    def expected_seconds(self, tol: float, kind: InputKind, *, batched: bool = False,
+                         horizon: float | None = None) -> tuple[float, float, float]:
+        """What trying the network first is expected to cost at ``tol``.
+
+        Returns:
+            (expected, share, classical): T_net + (1 − share) · T_classical, the share
+            accepted (cautious for a single call, in distribution for ``solve_many``,
+            which learns the share on its own rows), and T_classical.
+        """
+        share = self.acceptance_rate(tol, kind, cautious=not batched)
+        t_cls = self.classical_seconds(tol, kind, batched, horizon)
+        return self.neural_seconds_per(batched) + (1.0 - share) * t_cls, share, t_cls
+
+    # -- files --------------------------------------------------------------------------
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Calibration:
+        """Read a calibration dict of any format (an older one is migrated first).
+
+        Raises:
+            ValueError: a format this version cannot read, or an older file without the
+                fields a migration needs (calibrate the network again).
+        """
+        version = data.get("format", 1)
+        if version == 1:
+            data = _migrated_v1(data)
+        elif version != FORMAT:
+            raise ValueError(f"calibration format {version!r} is not readable here (this "
+                             f"version reads 1 and {FORMAT}); upgrade nh_operators")
+        factors: dict[tuple[InputKind, CallKind], np.ndarray] = {}
+        for truth, calls in data["factors"].items():
+            for call, values in calls.items():
+                kinds = [InputKind.SENSORS] if truth == "sensors" else [InputKind.BSPLINE,
+                                                                         InputKind.FORMULA]
+                for kind in kinds:
+                    factors[(kind, CallKind(call))] = _frozen(values)
+        costs = data["costs"]
+        classical = {InputKind(kind): {phase: _frozen(v) for phase, v in table.items()}
+                     for kind, table in costs["classical_seconds"].items()}
+        info = dict(data.get("info", {}))
+        info["device"] = costs.get("device")
+        return cls(limits=_frozen(data["limits"]), factors=factors,
+                   probabilities=_frozen(data["probabilities"]),
+                   estimate_quantiles=_frozen(data["estimate_quantiles"]),
+                   families=data["families"], neural_seconds=float(costs["neural_seconds"]),
+                   neural_seconds_batched=float(costs["neural_seconds_batched"]),
+                   classical_tols=_frozen(costs["classical_tols"]), classical=classical,
+                   info=info, version=version)
+
+    def to_json(self) -> dict[str, Any]:
+        """The calibration as a dict in format :data:`FORMAT` (JSON-serialisable)."""
+        factors: dict[str, dict[str, list[float]]] = {}
+        for (kind, call), values in self.factors.items():
+            if kind is not InputKind.FORMULA:  # shares the B-splines' (exact) table
+                factors.setdefault(kind.truth, {})[call.value] = values.tolist()
+        info = {k: v for k, v in self.info.items() if k != "device"}
+        return {"format": FORMAT, "limits": self.limits.tolist(), "factors": factors,
+                "probabilities": self.probabilities.tolist(),
+                "estimate_quantiles": self.estimate_quantiles.tolist(),
+                "families": self.families,
+                "costs": {"neural_seconds": self.neural_seconds,
+                          "neural_seconds_batched": self.neural_seconds_batched,
+                          "classical_tols": self.classical_tols.tolist(),
+                          "classical_seconds": {kind.value: {p: v.tolist() for p, v in
+                                                             table.items()}
+                                                for kind, table in self.classical.items()},
+                          "device": self.info.get("device")},
+                "info": info}
+
+    @classmethod
+    def read(cls, path: str | Path) -> Calibration:
+        """:meth:`from_json` of a file."""
+        return cls.from_json(json.loads(Path(path).read_text()))
+
+    def dumps(self) -> str:
+        """:meth:`to_json` as the text of a file."""
+        return json.dumps(self.to_json(), indent=2) + "\n"
 
 
-def _timings(result, name, dataset, n_timing, n_batched=(1000, 300, 50)):
-    """Median seconds of one network solve and of the classical solves, and the per-row
-    seconds of the same in ``solve_many`` (in place).
-
-    ``n_batched``: rows of the batched network timing (sensor values), of the batched
-    classical timing on sensor values, and on the exact B-splines.
-    """
-    from .._backend import single_threaded
-    from ..evaluation import device_info
-
-    pots = [dataset.potential(i) for i in range(min(n_timing, len(dataset)))]
-    with warnings.catch_warnings():  # the network's whole call, as a user makes it
-        warnings.simplefilter("ignore")
-        result["neural_seconds"] = _median_seconds(
-            lambda pot: solve(pot, TIMES, method=name), pots)
-    result["classical_tols"] = CLASSICAL_TOLS
-    result.update(_classical_timings(dataset.checksum, tuple(pots)))
-    with single_threaded():
-        result["neural_seconds_batched"] = _per_row_seconds(
-            _batched_network(name), dataset.V[:n_batched[0]])
-        result.update(_batched_classical_timings(dataset, n_batched[1:]))
-    result["device"] = device_info("cpu")
+def _migrated_v1(old: Mapping[str, Any]) -> dict[str, Any]:
+    """A format-1 file (flat keys: ``factors_sensors_early``, ``classical_seconds_formula``
+    ...) in format 2. Its scalar ``factor`` (the first bin's) is dropped."""
+    missing = [k for k in ("factors_sensors", "factors_early", "factors_sensors_early",
+                           "classical_seconds_short", "classical_seconds_sensors_short",
+                           "classical_seconds_formula_short",
+                           "classical_seconds_sensors_batched", *_V1_COSTS) if k not in old]
+    if missing:
+        raise ValueError(f"this calibration file predates {', '.join(missing)}: calibrate "
+                         "the network again (nh-operators calibrate)")
+    return {**factors_from_v1(old), "costs": costs_from_v1(old)}
 
 
-def _per_row_seconds(fn, rows, repeats=2):
-    """Best of ``repeats`` calls of ``fn(rows)`` after a warm-up, per row."""
-    fn(rows[:10])
-    return _median_seconds(fn, [rows], repeats) / len(rows)
+def factors_from_v1(old: Mapping[str, Any]) -> dict[str, Any]:
+    """Everything but the costs of a format-1 dict, in format 2 (``factor``, the first
+    bin's, is dropped; the cost fields are ignored)."""
+    factors: dict[str, dict[str, Any]] = {}
+    for kind in (InputKind.BSPLINE, InputKind.SENSORS):
+        for call, suffix in _V1_CALLS.items():
+            key = "factors" + _V1_KINDS[kind] + suffix
+            if key in old:
+                factors.setdefault(kind.truth, {})[call.value] = old[key]
+    taken = {"format", "factor", "limits", "probabilities", "estimate_quantiles", "families",
+             *_V1_COSTS} | {k for k in old if k.startswith(("factors", "classical_seconds"))}
+    return {"format": FORMAT, "limits": old["limits"], "factors": factors,
+            "probabilities": old["probabilities"],
+            "estimate_quantiles": old["estimate_quantiles"], "families": old["families"],
+            "info": {k: v for k, v in old.items() if k not in taken}}
 
 
-def _batched_network(name):
-    """What ``solve_many`` does with a network's rows of sensor values: predict, estimate
-    at the times (with the sensors' spline, which the classical rows share)."""
-    from ..solvers.rows import row_source
-    from .network_pass import _network_rows
-
-    return lambda V: _network_rows(name, V, row_source(V, "sensors"), "sensors", TIMES,
-                                   np.arange(len(V)))
-
-
-def _batched_classical_timings(dataset, sizes):
-    """Per-row seconds of ``solve_many(method="rk4")`` at each of :data:`CLASSICAL_TOLS`
-    on sensor values and on the exact B-splines; once per process and dataset."""
-    from .many import solve_many
-
-    key = ("batched", dataset.checksum, tuple(sizes))
-    if key not in _TIMINGS:
-        sensors, bsplines = dataset.V[:sizes[0]], dataset.potentials()[:sizes[1]]
-        _TIMINGS[key] = {
-            field: [_per_row_seconds(
-                lambda rows: solve_many(rows, TIMES, tol=tol, method="rk4"), items, 1)
-                for tol in CLASSICAL_TOLS]
-            for field, items in (("classical_seconds_sensors_batched", sensors),
-                                 ("classical_seconds_batched", bsplines))}
-    return _TIMINGS[key]
+def costs_from_v1(old: Mapping[str, Any]) -> dict[str, Any]:
+    """The costs of a format-1 dict (``neural_seconds``, ``classical_seconds_sensors_short``
+    ...), as format 2's ``costs``."""
+    classical: dict[str, dict[str, Any]] = {}
+    for kind, suffix in _V1_KINDS.items():
+        base = "classical_seconds" + suffix
+        table = {"full": old[base], "short": old[base + "_short"]}
+        if base + "_batched" in old:
+            table["batched"] = old[base + "_batched"]
+        classical[kind.value] = table
+    return {**{k: old[k] for k in _V1_COSTS}, "classical_seconds": classical}
 
 
-def _written(result, name, model, write):
-    from .catalog import WEIGHTS
-
-    if write:
-        path = WEIGHTS / name / CALIBRATION
-        write_atomic(path, (json.dumps(result, indent=2) + "\n").encode())
-        model.calibration = result
-    return result
+#: A small calibration in format 2, for examples and tests.
+EXAMPLE: dict[str, Any] = {
+    "format": 2, "limits": [1e-3, 1e-2],
+    "factors": {"exact": {"plain": [2.0, 3.0, 8.0], "early": [50.0, 50.0, 50.0]},
+                "sensors": {"plain": [0.5, 1.0, 4.0], "early": [50.0, 50.0, 50.0]}},
+    "probabilities": [0.0, 0.5, 1.0], "estimate_quantiles": [1e-6, 1e-4, 1e-2],
+    "families": {"sensors": {"estimate_quantiles": [1e-7, 1e-5, 1e-3]}},
+    "costs": {"neural_seconds": 1e-4, "neural_seconds_batched": 1e-5,
+              "classical_tols": [1e-3, 1e-6],
+              "classical_seconds": {kind: {"full": [1e-4, 1e-3], "short": [5e-5, 5e-4]}
+                                    for kind in ("bspline", "sensors", "formula")},
+              "device": None},
+    "info": {}}

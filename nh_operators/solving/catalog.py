@@ -18,8 +18,17 @@ from pathlib import Path
 from ..potentials import GENERATOR_DOMAIN
 from ..training.files import CHECKPOINT
 
-__all__ = ["WEIGHTS", "CALIBRATION", "DOMAIN", "available_pretrained", "resolve_pretrained",
-           "network_domain", "reads_state"]
+__all__ = [
+    "CALIBRATION",
+    "DOMAIN",
+    "WEIGHTS",
+    "available_pretrained",
+    "network_domain",
+    "reads_state",
+    "refresh",
+    "resolve_pretrained",
+    "shipped_names",
+]
 
 #: Folder of the shipped weights, one sub-folder per model.
 WEIGHTS = Path(__file__).parent / "weights"
@@ -39,9 +48,23 @@ def available_pretrained():
         >>> "traonet-paper" in available_pretrained()
         True
     """
+    return list(shipped_names())
+
+
+@functools.lru_cache(maxsize=1)
+def shipped_names():
+    """The shipped models' names, sorted, as a tuple; read once until :func:`refresh`
+    (which :func:`~nh_operators.export_pretrained` calls)."""
     if not WEIGHTS.is_dir():
-        return []
-    return sorted(p.name for p in WEIGHTS.iterdir() if (p / CHECKPOINT).is_file())
+        return ()
+    return tuple(sorted(p.name for p in WEIGHTS.iterdir() if (p / CHECKPOINT).is_file()))
+
+
+def refresh():
+    """Read the shipped folders again (names, domains, state flags): after weights were
+    exported or a domain refitted in this process."""
+    for cached in (shipped_names, network_domain, reads_state):
+        cached.cache_clear()
 
 
 def resolve_pretrained(name):
@@ -64,7 +87,7 @@ def resolve_pretrained(name):
     raise ValueError(f"no pretrained model {name!r}; available: {names or 'none'}")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def network_domain(name):
     """The inputs shipped model ``name`` was trained on, as bounds at the sensors: its
     ``domain.json``, else :data:`~nh_operators.potentials.GENERATOR_DOMAIN`.
@@ -81,7 +104,7 @@ def network_domain(name):
     return domain
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def reads_state(name):
     """Whether shipped model ``name`` takes a starting state (q0, p0) after the sensors
     (its config's ``arch`` has ``initial_state``); read from ``config.json``, torch-free.

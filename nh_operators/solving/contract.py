@@ -147,7 +147,7 @@ def network_estimates(cases, names, tols):
         is accepted), ``median_true`` and ``median_estimate``.
     """
     from ..potentials import as_potential
-    from .auto_solve import neural_solve
+    from .network_pass import neural_solve
 
     rows = []
     for name in names:

@@ -32,12 +32,15 @@ import numpy as np
 
 from .._constants import SENSORS, TIMES, V0
 
-__all__ = ["spline_rows", "residuals", "raw_estimate", "estimate_at", "propagated_error",
-           "calibrate", "CALIBRATION_QUANTILE"]
-
-#: Quantile of L_tot / raw estimate that becomes the calibration factor.
-CALIBRATION_QUANTILE = 0.995
-
+__all__ = [
+    "estimate_at",
+    "exact_force",
+    "propagated_error",
+    "raw_estimate",
+    "residuals",
+    "sensor_force",
+    "spline_rows",
+]
 
 def spline_rows(params, q, derivative=0):
     """Evaluate row i's sensor spline at the points q[i] (pairwise, vectorised).
@@ -306,40 +309,11 @@ def sensor_force(V):
     return (lambda q: spline_rows(params, q, 0)), (lambda q: spline_rows(params, q, 1))
 
 
-def calibrate(method, dataset, *, quantile=CALIBRATION_QUANTILE, batch=1000):
-    """Calibrate a network's error estimate on a labelled dataset it has not seen.
+def exact_force(pot):
+    """(V_rows, dV_rows) of an exact potential ``pot`` (with ``V`` and ``dV`` of flat
+    points), for arrays of any shape."""
+    return _rows(pot.V), _rows(pot.dV)
 
-    Args:
-        method: a :class:`~nh_operators.NeuralMethod` (``method(V, TIMES)``).
-        dataset: a :class:`~nh_operators.data.Dataset` on :data:`TIMES`; use potentials
-            from neither the training nor the test set (another seed).
-        quantile: the factor is this quantile of L_tot / raw estimate.
-        batch: potentials per pass.
 
-    Returns:
-        dict with ``factor``, ``quantile``, ``n``, ``dataset_checksum``,
-        ``estimate_quantiles`` (the calibrated estimate at probabilities
-        ``probabilities``: how often the network's estimate meets a tolerance) and
-        ``L_quantiles`` (its true L_tot there).
-    """
-    from .._metrics import loss_per_sample
-
-    if not np.allclose(dataset.t, TIMES):
-        raise ValueError("the calibration dataset must be on nh_operators.TIMES")
-    ratios, raws, losses = [], [], []
-    for start in range(0, len(dataset), batch):
-        V = np.asarray(dataset.V[start:start + batch])
-        q, p = method(V, TIMES)
-        raw = raw_estimate(q, p, *sensor_force(V))
-        loss = loss_per_sample(q, p, np.asarray(dataset.q[start:start + batch]),
-                               np.asarray(dataset.p[start:start + batch]))["L_tot"]
-        raws.append(raw)
-        losses.append(loss)
-        ratios.append(loss / np.maximum(raw, 1e-300))
-    raw, loss = np.concatenate(raws), np.concatenate(losses)
-    factor = float(np.quantile(np.concatenate(ratios), quantile))
-    probabilities = [0.0, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99, 1.0]
-    return {"factor": factor, "quantile": quantile, "n": int(len(raw)),
-            "dataset_checksum": dataset.checksum, "probabilities": probabilities,
-            "estimate_quantiles": [float(v) for v in np.quantile(factor * raw, probabilities)],
-            "L_quantiles": [float(v) for v in np.quantile(loss, probabilities)]}
+def _rows(fn):
+    return lambda x: np.asarray(fn(x.reshape(-1)), dtype=np.float64).reshape(x.shape)

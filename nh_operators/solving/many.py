@@ -16,10 +16,13 @@ progress bar when N is large. A classical row gives the same numbers as :func:`s
 that row.
 """
 
+from __future__ import annotations
+
 import functools
 import re
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -27,14 +30,48 @@ from .._backend import single_threaded
 from .._constants import SENSORS, TIMES
 from ..potentials import BoundedPotential, check_bounded, domain_stats, in_domain
 from ..solvers.rows import row_source, solve_rows
-from ..solvers.schemes import _check_times
+from ..solvers.schemes import check_times
 from ..solvers.states import check_states, state_arrays
-from .auto_solve import DEFAULT_TOL, _calibration, _checked, _ranked, _solve
-from .catalog import network_domain, reads_state
-from .costs import _classical_seconds, _horizon_key, _neural_seconds
-from .network_pass import _NetworkRuns, _pilot_order, _record
+from .auto_solve import solve
+from .costs import horizon_key
+from .kinds import InputKind
+from .loader import load
+from .network_pass import Answers, NetworkRuns, pilot_order, record
+from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
 
-__all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
+__all__ = ["CHUNK", "PILOT", "ManySolution", "RowError", "solve_many"]
+
+class RowError(ValueError):
+    """A bad row of a :func:`solve_many` call: ``row`` is its index in the call, and the
+    message starts with ``"row {row}: "``.
+
+    Example:
+        >>> err = RowError(3, "its energy exceeds V0")
+        >>> err.row, str(err)
+        (3, 'row 3: its energy exceeds V0')
+    """
+
+    def __init__(self, row: int, message: str) -> None:
+        super().__init__(f"row {row}: {message}")
+        self.row = row
+
+
+def _row_error(err: ValueError, row: int, message: str) -> ValueError:
+    """``err`` about row ``row`` of the call: a :class:`RowError`, or for a subclass of
+    ValueError (``PeriodError``) the same class with the row named."""
+    if type(err) is ValueError:
+        return RowError(row, message)
+    return type(err)(f"row {row}: {message}")
+
+
+def _named_row(err: ValueError, rows: np.ndarray) -> ValueError:
+    """A solver's error about "row k" of the rows ``rows`` it was given, about row
+    ``rows[k]`` of the call (a :class:`RowError`); ``err`` itself if it names no row."""
+    found = re.match(r"row (\d+): (.*)", str(err), re.DOTALL)
+    if found is None:
+        return err
+    return _row_error(err, int(rows[int(found.group(1))]), found.group(2))
+
 
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192
@@ -128,6 +165,11 @@ def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progre
             on a state other than (0, 0).
         PeriodError: a row whose far horizon has no usable period (a separatrix).
 
+    Thread safety: below :data:`THREADS_FROM` rows the call sets torch's and numba's
+    process-wide thread counts to 1 and restores them on return, as
+    :func:`~nh_operators.solve` does (not thread-safe: see ``docs/solve.md``,
+    "Threads"); from it on, it leaves them alone.
+
     Example:
         >>> import numpy as np
         >>> V = np.stack([8 * (SENSORS - 0.5) ** 2, 2 - 7.5 * SENSORS * (1 - SENSORS)])
@@ -145,113 +187,181 @@ def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progre
     return _solve_many(potentials, t, q0, p0, tol, method, progress, start)
 
 
+@dataclass(frozen=True)
+class _Call:
+    """The rows of one ``solve_many`` call, checked: their force source ``src``, sensor
+    values ``V`` (None for a batched B-spline, ``potentials`` then), input kind, times t
+    ((M,) or (N, M)) and states (q0s, p0s, (N,))."""
+
+    potentials: Any
+    src: Any
+    V: np.ndarray | None
+    kind: InputKind
+    t: np.ndarray
+    q0s: np.ndarray
+    p0s: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.q0s)
+
+    @property
+    def values(self) -> np.ndarray:
+        """The sensor values (N, 100)."""
+        return self.V if self.V is not None else self.potentials.V(SENSORS)
+
+
 def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
-    method, networks, classical = _checked(method, tol)
+    method, networks = check_method(method, tol)
     if isinstance(potentials, (list, tuple)):
         return _one_by_one(potentials, t, q0, p0, tol, method, start)
+    call = _checked_call(potentials, t, q0, p0)
+    target = DEFAULT_TOL if tol is None else float(tol)
+    n, m = call.n, call.t.shape[-1]
+    answers = Answers(np.empty((n, m)), np.empty((n, m)), np.zeros(n),
+                      np.full(n, CLASSICAL.get(method, "rk4"), dtype=object),
+                      np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
+    tried = []
+    names = _candidates(call, method, tol, networks)
+    if names:
+        _network_pass(call, names, method, tol, target, answers, tried)
+    substeps, period = _classical_pass(call, np.flatnonzero(~answers.neural),
+                                       CLASSICAL.get(method, "rk4"), target, answers,
+                                       progress)
+    return ManySolution(answers.q, answers.p, answers.methods.astype(str), answers.estimate,
+                        answers.neural, substeps, period, time.perf_counter() - start, tol,
+                        tried)
+
+
+def _checked_call(potentials, t, q0, p0) -> _Call:
+    """The call's rows, times and states, or a clear error."""
     if isinstance(potentials, BoundedPotential):
         if not potentials.batched:
             raise ValueError("a single BoundedPotential: use nh.solve, or pass a batch")
-        src = row_source(potentials, "exact V")
-        V = None
+        kind, V = InputKind.BSPLINE, None
+        src = row_source(potentials, kind.information)
     else:
         V = check_bounded(np.atleast_2d(np.asarray(potentials, dtype=np.float64)))
-        src = row_source(V, "sensors")
+        kind = InputKind.SENSORS
+        src = row_source(V, kind.information)
     n = src.params.shape[0]
     t = np.asarray(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[0] == n and t.shape[1] >= 1:
         for row in t:
-            _check_times(row)
+            check_times(row)
     elif t.ndim <= 1:
-        t = _check_times(t.reshape(-1))
+        t = check_times(t.reshape(-1))
     else:
         raise ValueError(f"t must have shape (M,) or (N, M) = ({n}, M); got {t.shape}")
     q0s, p0s = state_arrays(q0, p0, n)
-    check_states(q0s, p0s, src.values_at, batched=True)
-    target = DEFAULT_TOL if tol is None else float(tol)
-    methods = np.full(n, classical.get(method, "rk4"), dtype=object)
-    estimate = np.zeros(n)
-    m = t.shape[-1]
-    q_out, p_out = np.empty((n, m)), np.empty((n, m))
-    classical_rows = np.arange(n)
-    tried = []
-    neural = np.zeros(n, dtype=bool)
-    rest = (q0s == 0.0) & (p0s == 0.0)
+    try:
+        check_states(q0s, p0s, src.values_at, batched=True)
+    except ValueError as err:
+        raise _named_row(err, np.arange(n)) from None
+    return _Call(potentials, src, V, kind, t, q0s, p0s)
+
+
+def _candidates(call: _Call, method: str, tol: float | None,
+                networks: tuple[str, ...]) -> list[str]:
+    """The networks to try, in order: a forced one (checked), or with ``auto`` and a
+    tolerance the ones expected to be cheaper per row (at rest, then from other states)."""
+    t, rest = call.t, (call.q0s == 0.0) & (call.p0s == 0.0)
     if method in networks:
-        if not rest.all() and not reads_state(method):
+        if not rest.all() and not load(method).reads_state:
             bad = int(np.flatnonzero(~rest)[0])
             raise ValueError(f"{method} was trained from the state (0, 0) only; row {bad} "
-                             f"starts at ({q0s[bad]:g}, {p0s[bad]:g})")
+                             f"starts at ({call.q0s[bad]:g}, {call.p0s[bad]:g})")
         if t.max() > TIMES[-1] + 1e-12:
             raise ValueError(f"{method} predicts on t ∈ [0, 2]; got t up to {t.max():g}")
-        names = [method]
-    elif method == "auto" and tol is not None:
-        kind = "sensors" if V is not None else "bspline"
-        ids = tuple(id(_calibration(nn)) for nn in networks)
-        names = [c[0] for states in (False, True)   # at rest, then from other states
-                 for c in _ranked(tol, kind, ids, True, states, _horizon_key(t))[0]]
-    else:
-        names = []
-    if names:
-        values = V if V is not None else potentials.V(SENSORS)
-        free = np.broadcast_to(t.max(axis=-1) <= TIMES[-1] + 1e-12, (n,)).copy()
-        stats = domain_stats(values)  # once for every network's domain
-        # a network for states answers the rows not at rest, the others those at rest
-        eligible = {name: free & (~rest if reads_state(name) else rest)
-                    & in_domain(values, network_domain(name), stats=stats)
-                    if method == "auto" else free for name in names}
-        out = (q_out, p_out, estimate, methods, neural, free)
-        runs = _NetworkRuns(values, src, "sensors" if V is not None else "exact", t, q0s,
-                            p0s, target if method == "auto" else np.inf, out)
-        order, pilot = names, np.zeros(n, dtype=bool)
-        if method == "auto" and free.sum() >= 2 * PILOT:
-            # every candidate answers the same spread-out pilot rows; their results there
-            # choose which networks go on, in which order (:func:`_pilot_order`)
-            spread = np.linspace(0, free.sum() - 1, PILOT).astype(np.int64)
-            pilot[np.flatnonzero(free)[spread]] = True
-            results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
-                       for name in names}  # (rows, q, p, estimate, accepted)
-            costs = {name: (_classical_seconds(_calibration(name), tol, kind, True,
-                                               _horizon_key(t)),
-                            _neural_seconds(_calibration(name), True)) for name in names}
-            order = _pilot_order(results, costs)
-            for name in order:  # the pilot rows, each answered by the first that accepts
-                runs.keep(name, *results[name], tried)
-                runs.stop_refining(name, costs[name])
-            for name in names:
-                part, take = results[name][0], results[name][4]
-                if name not in order and part.size:
-                    _record(tried, name, part.size, 0)
-                    tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
-                                            f"{part.size} rows: not worth its cost")
-        for name in order:
-            part = np.flatnonzero(free & eligible[name] & ~pilot)
-            if part.size:
-                runs.keep(name, *runs.run(name, part), tried)
-        classical_rows = np.flatnonzero(~neural)
+        return [method]
+    if method == "auto" and tol is not None:
+        return [c[0] for states in (False, True)   # at rest, then from other states
+                for c in ranked(tol, call.kind, True, states, horizon_key(t))[0]]
+    return []
+
+
+def _network_pass(call: _Call, names: list[str], method: str, tol: float | None,
+                  target: float, answers: Answers, tried: list) -> None:
+    """Networks ``names`` answer the rows they may (in ``answers``, in place): each row
+    goes to the first whose estimate meets ``target``; from 2 · :data:`PILOT` free rows on
+    (``auto``), a pilot chooses which networks go on, in which order."""
+    n, t, auto = call.n, call.t, method == "auto"
+    values = call.values
+    rest = (call.q0s == 0.0) & (call.p0s == 0.0)
+    answers.free[:] = np.broadcast_to(t.max(axis=-1) <= TIMES[-1] + 1e-12, (n,))
+    free = answers.free
+    stats = domain_stats(values)  # once for every network's domain
+    # a network for states answers the rows not at rest, the others those at rest
+    eligible = {name: free & (~rest if load(name).reads_state else rest)
+                & in_domain(values, load(name).domain, stats=stats)
+                if auto else free.copy() for name in names}
+    runs = NetworkRuns(values, call.src, call.kind, t, call.q0s, call.p0s,
+                       target if auto else np.inf, answers)
+    order, pilot = names, np.zeros(n, dtype=bool)
+    if auto and free.sum() >= 2 * PILOT:
+        order = _pilot(runs, names, eligible, pilot, call, tol, tried)
+    for name in order:
+        part = np.flatnonzero(free & eligible[name] & ~pilot)
+        if part.size:
+            runs.keep(name, *runs.run(name, part), tried)
+
+
+def _pilot(runs: NetworkRuns, names: list[str], eligible: dict, pilot: np.ndarray,
+           call: _Call, tol: float, tried: list) -> list[str]:
+    """Every candidate answers the same spread-out pilot rows (marked in ``pilot``); their
+    results there choose which networks go on, in which order (:func:`pilot_order`)."""
+    free = runs.answers.free
+    spread = np.linspace(0, free.sum() - 1, PILOT).astype(np.int64)
+    pilot[np.flatnonzero(free)[spread]] = True
+    results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
+               for name in names}  # (rows, q, p, estimate, accepted)
+    costs = {name: (load(name).calibration.classical_seconds(tol, call.kind, True,
+                                                             horizon_key(call.t)),
+                    load(name).calibration.neural_seconds_per(True))
+             for name in names}
+    order = pilot_order(results, costs)
+    for name in order:  # the pilot rows, each answered by the first that accepts
+        runs.keep(name, *results[name], tried)
+        runs.stop_refining(name, costs[name])
+    for name in names:
+        part, take = results[name][0], results[name][4]
+        if name not in order and part.size:
+            record(tried, name, part.size, 0)
+            tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
+                                    f"{part.size} rows: not worth its cost")
+    return order
+
+
+def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target: float,
+                    answers: Answers, progress: bool | None) -> tuple[np.ndarray, np.ndarray]:
+    """Solve rows ``rows_left`` classically, :data:`CHUNK` at a time (in ``answers``);
+    (substeps, period) of every row (0 and nan where a network answered).
+
+    Raises:
+        RowError: a bad row, named by its index in the call.
+    """
+    n, t = call.n, call.t
     substeps = np.zeros(n, dtype=np.int64)
     period = np.full(n, np.nan)
-    bar = _bar(classical_rows.size, progress)
-    integrator = classical.get(method, "rk4")
-    for lo in range(0, classical_rows.size, CHUNK):
-        rows = classical_rows[lo:lo + CHUNK]
+    bar = _bar(rows_left.size, progress)
+    for lo in range(0, rows_left.size, CHUNK):
+        rows = rows_left[lo:lo + CHUNK]
         # every row classical: a slice takes views of the parameters, not copies
-        sub = src.subset(slice(lo, lo + rows.size) if classical_rows.size == n else rows)
+        sub = call.src.subset(slice(lo, lo + rows.size) if rows_left.size == n else rows)
         try:
-            out = solve_rows(sub, t[rows] if t.ndim == 2 else t, q0s[rows], p0s[rows],
-                             np.full(rows.size, target), integrator, batched=True)
+            out = solve_rows(sub, t[rows] if t.ndim == 2 else t, call.q0s[rows],
+                             call.p0s[rows], np.full(rows.size, target), integrator,
+                             batched=True)
         except ValueError as err:  # name the row of the whole call, not of the chunk
-            text = re.sub(r"^row (\d+):", lambda m: f"row {rows[int(m.group(1))]}:", str(err))
-            raise type(err)(text) from None
-        q_out[rows], p_out[rows] = out["q"], out["p"]
-        estimate[rows], substeps[rows], period[rows] = (out["estimate"], out["substeps"],
-                                                        out["period"])
+            raise _named_row(err, rows) from None
+        answers.q[rows], answers.p[rows] = out["q"], out["p"]
+        answers.estimate[rows], substeps[rows], period[rows] = (
+            out["estimate"], out["substeps"], out["period"])
         if bar is not None:
             bar.update(rows.size)
     if bar is not None:
         bar.close()
-    return ManySolution(q_out, p_out, methods.astype(str), estimate, neural, substeps,
-                        period, time.perf_counter() - start, tol, tried)
+    return substeps, period
 
 
 def _one_by_one(potentials, t, q0, p0, tol, method, start):
@@ -265,10 +375,10 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
     sols = []
     for i, pot in enumerate(potentials):
         try:
-            sols.append(_solve(pot, rows_t[i], tol, method, None, time.perf_counter(),
-                               float(q0s[i]), float(p0s[i])))
+            sols.append(solve(pot, rows_t[i], tol=tol, method=method, q0=float(q0s[i]),
+                              p0=float(p0s[i])))
         except ValueError as err:
-            raise type(err)(f"row {i}: {err}") from None
+            raise _row_error(err, i, str(err)) from None
     neural = np.array([s.kind == "neural" for s in sols], dtype=bool)
     last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural)]  # a classical solve
     substeps = np.array([r.get("substeps") or 0 for r in last], dtype=np.int64)

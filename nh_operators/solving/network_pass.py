@@ -1,20 +1,80 @@
-"""The networks' pass of :func:`~nh_operators.solving.many.solve_many`: a network's
-prediction and estimate on rows of the call (a second, finer look where the estimate
-fails: :mod:`~nh_operators.solving.refine`), the order in which the candidates go on
-after a pilot, and the answers kept."""
+"""A shipped network's answer with its calibrated estimate: one call
+(:func:`neural_solve`, :func:`neural_raw`) or rows of a ``solve_many`` call
+(:func:`network_rows`, with a second, finer look where the estimate fails:
+:mod:`~nh_operators.solving.refine`), the order in which the candidates go on after a
+pilot, and the answers kept."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from .._constants import TIMES
-from .acceptance import EARLY_HORIZON, calibrated
-from .auto_solve import _model, network_input
-from .estimate import estimate_at
+from .._constants import SENSORS, TIMES
+from .acceptance import EARLY_HORIZON
+from .estimate import estimate_at, exact_force, sensor_force
+from .kinds import CallKind, InputKind
+from .loader import load
 from .refine import fine_estimate, refines
 
-__all__ = []
+__all__ = [
+    "NetworkRuns",
+    "network_rows",
+    "neural_raw",
+    "neural_solve",
+    "pilot_order",
+    "record",
+    "sensor_values",
+]
 
 
-def _record(tried, name, rows, accepted):
+def sensor_values(pot: Any, information: str) -> np.ndarray:
+    """The 100 sensor values of a coerced potential, float64 (100,)."""
+    return np.asarray(pot if information == "sensors" else pot.V(SENSORS), dtype=np.float64)
+
+
+def neural_solve(name: str, pot: Any, information: str, t: np.ndarray, q0: float = 0.0,
+                 p0: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """Predict with shipped model ``name`` on :data:`TIMES`, estimate, interpolate to t
+    (from the state (q0, p0): a network that reads one); torch and numba run on one
+    thread inside (:func:`~nh_operators._backend.single_threaded`).
+
+    Returns:
+        (q, p, estimate): q and p (M,); the estimate is the calibrated one, or the raw
+        estimate when the model has no calibration.
+    """
+    from .._backend import single_threaded
+
+    shipped = load(name)
+    _ = shipped.method  # loads torch first, so that the block below limits its threads too
+    with single_threaded():
+        q, p, raw = neural_raw(name, pot, information, t, q0, p0)
+        if shipped.calibration is None:
+            return q, p, float(raw)
+        early = float(np.max(t)) <= EARLY_HORIZON
+        kind = InputKind.of(pot, information)
+        return q, p, float(shipped.calibration.calibrated_calls(raw, kind, early))
+
+
+def neural_raw(name: str, pot: Any, information: str, t: np.ndarray = TIMES,
+               q0: float = 0.0, p0: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """Model ``name``'s prediction at the times ``t`` (the spline through its prediction
+    on :data:`TIMES`) from (q0, p0), and its uncalibrated estimate there
+    (:func:`~nh_operators.solving.estimate.estimate_at`): (q, p, raw), q and p (M,)."""
+    from ..models import predict
+
+    shipped = load(name)
+    V = sensor_values(pot, information)
+    q, p = predict(shipped.net, shipped.input_rows(V[None], q0, p0), TIMES, batch_size=1)
+    force = sensor_force(V) if information == "sensors" else exact_force(pot)
+    qa, pa, raw = estimate_at(q, p, *force, np.asarray(t, dtype=np.float64).reshape(-1),
+                              q0=q0, p0=p0)
+    raw = float(raw[0])
+    return qa[0], pa[0], (raw if np.isfinite(raw) else np.inf)  # inf: far outside [0, 1]
+
+
+def record(tried, name, rows, accepted):
     """Count a network's rows and accepted rows in ``tried`` (one entry per network)."""
     for entry in tried:
         if entry["method"] == name:
@@ -24,7 +84,7 @@ def _record(tried, name, rows, accepted):
     tried.append({"method": name, "rows": int(rows), "accepted": int(accepted)})
 
 
-def _pilot_order(results, costs):
+def pilot_order(results: dict, costs: dict) -> list[str]:
     """The networks that go on past the pilot, in order.
 
     ``results[name]``: (rows, q, p, estimate, accepted) of each network on its pilot rows;
@@ -38,9 +98,9 @@ def _pilot_order(results, costs):
         >>> def results(a):  # b accepts rows 1 and 2, a the rows given
         ...     return {"a": (rows, None, None, None, np.isin(rows, a)),
         ...             "b": (rows, None, None, None, np.isin(rows, [1, 2]))}
-        >>> _pilot_order(results([1]), costs)  # a accepts nothing b did not
+        >>> pilot_order(results([1]), costs)  # a accepts nothing b did not
         ['b']
-        >>> _pilot_order(results([0]), costs)  # alone, a would not pay; after b it does
+        >>> pilot_order(results([0]), costs)  # alone, a would not pay; after b it does
         ['b', 'a']
     """
     order, answered = [], np.zeros(0, dtype=np.int64)
@@ -61,14 +121,33 @@ def _pilot_order(results, costs):
         answered = np.union1d(answered, rows[accepted])
 
 
-class _NetworkRuns:
-    """Networks run on rows of one ``solve_many`` call, their answers kept where their
-    estimate meets ``target`` and the row is still free (``out``: the call's q, p,
-    estimate, methods, neural and free arrays, written in place)."""
+@dataclass
+class Answers:
+    """What the rows of one ``solve_many`` call got so far (arrays written in place).
 
-    def __init__(self, values, src, kind, t, q0s, p0s, target, out):
+    Attributes:
+        q, p: (N, M) the answers.
+        estimate: (N,) their estimates.
+        methods: (N,) object array of method names.
+        neural: (N,) bool, rows a network answered.
+        free: (N,) bool, rows a network may still answer.
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    estimate: np.ndarray
+    methods: np.ndarray
+    neural: np.ndarray
+    free: np.ndarray
+
+
+class NetworkRuns:
+    """Networks run on rows of one ``solve_many`` call, their answers kept where their
+    estimate meets ``target`` and the row is still free (in ``answers``, in place)."""
+
+    def __init__(self, values, src, kind, t, q0s, p0s, target, answers: Answers):
         self.args = (values, src, kind, t)
-        self.q0s, self.p0s, self.target, self.out = q0s, p0s, target, out
+        self.q0s, self.p0s, self.target, self.answers = q0s, p0s, target, answers
         self.refined = {}  # name: [rows estimated again, of them accepted]; None: stopped
 
     def run(self, name, rows):
@@ -77,7 +156,7 @@ class _NetworkRuns:
             return rows, None, None, None, np.zeros(0, dtype=bool)
         counts = self.refined.setdefault(name, [0, 0])
         target = self.target if counts is not None else np.inf  # inf: no second look
-        q, p, est = _network_rows(name, *self.args, rows, self.q0s, self.p0s, target,
+        q, p, est = network_rows(name, *self.args, rows, self.q0s, self.p0s, target,
                                   counts)
         return rows, q, p, est, est <= self.target
 
@@ -91,47 +170,50 @@ class _NetworkRuns:
 
     def keep(self, name, rows, q, p, est, accepted, tried):
         """Keep the accepted answers of rows still free, and count them in ``tried``."""
-        q_out, p_out, estimate, methods, neural, free = self.out
-        take = accepted & free[rows]
+        a = self.answers
+        take = accepted & a.free[rows]
         rows_taken = rows[take]
-        q_out[rows_taken], p_out[rows_taken] = q[take], p[take]
-        estimate[rows_taken], methods[rows_taken] = est[take], name
-        neural[rows_taken], free[rows_taken] = True, False
-        _record(tried, name, rows.size, take.sum())
+        a.q[rows_taken], a.p[rows_taken] = q[take], p[take]
+        a.estimate[rows_taken], a.methods[rows_taken] = est[take], name
+        a.neural[rows_taken], a.free[rows_taken] = True, False
+        record(tried, name, rows.size, take.sum())
 
 
-def _network_rows(name, V, src, kind, t, rows, q0s=0.0, p0s=0.0, target=np.inf,
-                  counts=None):
+def network_rows(name: str, V: np.ndarray, src: Any, kind: InputKind, t: np.ndarray,
+                 rows: np.ndarray, q0s: Any = 0.0, p0s: Any = 0.0, target: float = np.inf,
+                 counts: list | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Predict rows ``rows`` with shipped model ``name`` from their states (q0s, p0s:
     scalars or one per row of V); (q, p, estimate) of those rows at their asked times
     (the estimate there too: :func:`estimate_at`, with the force of ``src``, the rows'
     :class:`~nh_operators.solvers.rows.RowSource`: the sensors' spline for sensor values,
-    whose coefficients it already holds; ``kind``: ``"sensors"`` or ``"exact"``); a row
-    whose estimate exceeds ``target`` is estimated again on a finer grid where the
-    network allows it (:mod:`~nh_operators.solving.refine`; ``counts``, a list, gains
-    the rows estimated again and those then accepted)."""
+    whose coefficients it already holds; ``kind``: the input's
+    :class:`~nh_operators.solving.kinds.InputKind`); a row whose estimate exceeds
+    ``target`` is estimated again on a finer grid where the network allows it
+    (:mod:`~nh_operators.solving.refine`; ``counts``, a list, gains the rows estimated
+    again and those then accepted)."""
     from ..models import predict
 
-    model = _model(name)
+    shipped = load(name)
+    cal = shipped.calibration
     q0s, p0s = (np.broadcast_to(np.asarray(a, dtype=np.float64), (len(V),))[rows]
                 for a in (q0s, p0s))
-    q, p = predict(model.net, network_input(name, V[rows], q0s, p0s), TIMES)
+    q, p = predict(shipped.net, shipped.input_rows(V[rows], q0s, p0s), TIMES)
 
     mine = src.subset(rows)  # the rows' coefficients, taken once
     t = t if t.ndim == 1 else t[rows]
     qa, pa, raw = estimate_at(q, p, mine.values_at, lambda x: -mine.forces_at(x), t, q0=q0s,
                               p0=p0s)
     early = np.broadcast_to(t.max(axis=-1) <= EARLY_HORIZON, raw.shape)  # per row
-    estimate = np.where(np.isfinite(raw), calibrated(raw, model.calibration, kind, early),
-                        np.inf)
+    calibrated = raw if cal is None else cal.calibrated_calls(raw, kind, early)
+    estimate = np.where(np.isfinite(raw), calibrated, np.inf)
     redo = np.flatnonzero((estimate > target) & ~early & np.isfinite(raw))
     if redo.size and refines(name):  # a finer look where the estimate failed (.refine)
         again = mine.subset(redo)
         qf, pf, raw_f = fine_estimate(name, V[rows[redo]], again.values_at,
                                       lambda x: -again.forces_at(x),
                                       t if t.ndim == 1 else t[redo], q0s[redo], p0s[redo])
-        fine = np.where(np.isfinite(raw_f), calibrated(raw_f, model.calibration, kind,
-                                                       fine=True), np.inf)
+        fine_cal = raw_f if cal is None else cal.calibrated(raw_f, kind, CallKind.FINE)
+        fine = np.where(np.isfinite(raw_f), fine_cal, np.inf)
         ok = fine <= target
         qa[redo[ok]], pa[redo[ok]], estimate[redo[ok]] = qf[ok], pf[ok], fine[ok]
         if counts is not None:

@@ -3,8 +3,9 @@
 import numpy as np
 
 from .._constants import SENSORS
-from .auto_solve import _model, neural_raw
-from .catalog import available_pretrained, reads_state, resolve_pretrained
+from .catalog import available_pretrained, resolve_pretrained
+from .loader import load
+from .network_pass import neural_raw
 from .shipped import pretrained
 
 __all__ = ["preload"]
@@ -36,10 +37,11 @@ def preload(names=None, warm=True):
         name = resolve_pretrained(name)
         if name not in available_pretrained():
             pretrained(name)  # raises, naming the available ones
-        _model(name)
+        shipped = load(name)
+        _ = shipped.method  # reads the weights
         if warm:
             V = 2.0 - 8.0 * SENSORS * (1.0 - SENSORS)
-            state = {"q0": 0.25, "p0": 0.5} if reads_state(name) else {}
+            state = {"q0": 0.25, "p0": 0.5} if shipped.reads_state else {}
             neural_raw(name, V, "sensors", np.array([0.5]), **state)
         loaded.append(name)
     return loaded

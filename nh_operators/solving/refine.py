@@ -16,10 +16,10 @@ a single ``solve`` does not take it.
 import numpy as np
 
 from .._constants import TIMES
-from .auto_solve import _model, network_input
 from .estimate import estimate_at
+from .loader import load
 
-__all__ = ["REFINE", "FINE_TIMES", "refines", "fine_estimate"]
+__all__ = ["FINE_TIMES", "REFINE", "fine_estimate", "refines"]
 
 #: How many times finer the second grid is.
 REFINE = 2
@@ -32,9 +32,9 @@ FINE_TIMES.flags.writeable = False
 def refines(name):
     """Whether shipped model ``name`` answers on :data:`FINE_TIMES` as it does on the grid
     (a PhaseONet, whose prediction is a function of time, not a decoder of queries)."""
-    from ..models.phaseonet import PhaseONet
+    from ..models import PhaseONet, StatePhaseONet
 
-    return isinstance(_model(name).net, PhaseONet)
+    return isinstance(load(name).net, (PhaseONet, StatePhaseONet))
 
 
 def fine_estimate(name, V, values, slopes, at, q0=0.0, p0=0.0):
@@ -44,5 +44,6 @@ def fine_estimate(name, V, values, slopes, at, q0=0.0, p0=0.0):
     (``values``, ``slopes``: the rows' V and dV/dq)."""
     from ..models import predict
 
-    q, p = predict(_model(name).net, network_input(name, V, q0, p0), FINE_TIMES)
+    shipped = load(name)
+    q, p = predict(shipped.net, shipped.input_rows(V, q0, p0), FINE_TIMES)
     return estimate_at(q, p, values, slopes, at, FINE_TIMES, q0=q0, p0=p0)

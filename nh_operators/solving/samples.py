@@ -1,6 +1,6 @@
 """The samples that calibrate a shipped network for :func:`~nh_operators.solve`: families
 of inputs, each at random asked times, with the true L_tot and the raw estimate of every
-row (:func:`calibration_families`; :mod:`~nh_operators.solving.calibration` turns them
+row (:func:`calibration_families`; :mod:`~nh_operators.solving.calibrate` turns them
 into factors)."""
 
 import numpy as np
@@ -8,8 +8,9 @@ import numpy as np
 from .._constants import SENSORS, TIMES
 from .._metrics import loss_per_sample
 from .acceptance import EARLY_HORIZON, SENSOR_FAMILIES
-from .auto_solve import _model, _rows, neural_raw
-from .estimate import sensor_force
+from .estimate import exact_force, sensor_force
+from .loader import load
+from .network_pass import neural_raw
 from .refine import fine_estimate, refines
 
 __all__ = ["SENSOR_PASSES", "calibration_families"]
@@ -47,11 +48,10 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
     from .catalog import network_domain
     from .estimate import estimate_at
 
-    from .auto_solve import network_input
-
     V = pots if isinstance(pots, np.ndarray) else pots.V(SENSORS)
     keep = np.flatnonzero(in_domain(V, network_domain(name)))
-    net, fine = _model(name).net, refines(name)
+    shipped = load(name)
+    net, fine = shipped.net, refines(name)
     q0s, p0s = (np.zeros(len(V)), np.zeros(len(V))) if states is None else states
     true, raw, early, true_fine, raw_fine = [], [], [], [], []
     for lo in range(0, keep.size, group):
@@ -59,7 +59,7 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
         t = _asked_times(rng)
         early.append(np.full(rows.size, t.max() <= EARLY_HORIZON))
         state = {"q0": q0s[rows], "p0": p0s[rows]}
-        q, p = predict(net, network_input(name, V[rows], **state), TIMES)
+        q, p = predict(net, shipped.input_rows(V[rows], **state), TIMES)
         if sensors:
             q_ref, p_ref = integrate_sensors(V[rows], t, substeps=512, check_resolution=False,
                                              **state)
@@ -109,7 +109,7 @@ def _ood_ratios(name, n, seed, rng, states=False):
         raw.append(r)
         fine_call = fine and t.max() > EARLY_HORIZON  # the finer look's calls (.refine)
         if fine_call:
-            force = (_rows(pot.V), _rows(pot.dV))
+            force = exact_force(pot)
             q, p, r = (a[0] for a in fine_estimate(name, pot.V(SENSORS)[None], *force, t,
                                                    **state))
             r = float(r) if np.isfinite(r) else np.inf

@@ -22,9 +22,9 @@ import numpy as np
 import torch
 
 from ..training import CHECKPOINT, CONFIG, HISTORY, load_checkpoint, write_atomic
-from .catalog import DOMAIN, WEIGHTS, network_domain, resolve_pretrained
+from .catalog import DOMAIN, WEIGHTS, network_domain, refresh, resolve_pretrained
 
-__all__ = ["pretrained", "export_pretrained", "refit_domain"]
+__all__ = ["export_pretrained", "pretrained", "refit_domain"]
 
 METRICS = "metrics.json"
 _SLIM = ("format", "config", "model", "epoch", "data_checksum", "version")
@@ -112,6 +112,7 @@ def export_pretrained(run_dir, out_dir, *, report=None, name=None, commands=(), 
     if data is not None:
         domain = training_domain(data, state)
         write_atomic(out / DOMAIN, (json.dumps(domain, indent=2) + "\n").encode())
+    refresh()  # weights exported into the package are available from now on
     return out
 
 
@@ -143,7 +144,7 @@ def refit_domain(name, data):
             raise ValueError(f"{data} is not the dataset {name} trained on: its training "
                              f"rows give other {', '.join(changed)}") from None
     write_atomic(WEIGHTS / name / DOMAIN, (json.dumps(domain, indent=2) + "\n").encode())
-    network_domain.cache_clear()
+    refresh()
     return domain
 
 

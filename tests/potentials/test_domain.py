@@ -92,9 +92,6 @@ def test_a_wall_that_does_not_push_inward_is_outside_every_domain():
     assert not in_domain(hilltop) and in_domain(8 * (q - 0.5) ** 2)
     (message,) = domain_violations(hilltop)
     assert message.startswith("V has a wall whose force does not point inward")
-    # an older domain.json, without the bound, does not check it
-    older = {k: v for k, v in GENERATOR_DOMAIN.items() if k != "min_wall_force"}
-    assert in_domain(hilltop, older) and domain_violations(hilltop, older) == []
 
 
 def test_fit_domain_rejects_bad_rows_and_slack():

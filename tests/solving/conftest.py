@@ -1,9 +1,13 @@
 """Fixtures of the solving tests."""
 
+import dataclasses
+
+import numpy as np
 import pytest
+from calibration_helpers import use_calibration
 
 import nh_operators as nh
-from nh_operators.solving import auto_solve
+from nh_operators.solving import loader
 
 
 @pytest.fixture
@@ -14,22 +18,16 @@ def open_costs(monkeypatch):
         """The shipped calibrations with a network solve costing nothing, so that ``auto``
         tries a network wherever its domain admits the input (on this CPU a network is
         never expected to be cheaper, and the promise must hold wherever it is tried);
-        ``factor_scale`` scales the factor (and the estimates it implies)."""
+        ``factor_scale`` scales the factors (and the estimates they imply)."""
         for name in nh.available_pretrained():
-            model = auto_solve._model(name)
-            cal = dict(model.calibration)
-            cal["neural_seconds"] = cal["neural_seconds_batched"] = 0.0
-            cal["factor"] *= factor_scale
-            for key in ("factors", "factors_sensors", "factors_early", "factors_sensors_early",
-                        "factors_fine", "factors_sensors_fine"):
-                if key in cal:
-                    cal[key] = [factor_scale * f for f in cal[key]]
-            cal["estimate_quantiles"] = [factor_scale * v for v in cal["estimate_quantiles"]]
-            cal["families"] = {fam: dict(f, estimate_quantiles=[factor_scale * v for v in
-                                                                 f["estimate_quantiles"]])
-                               if "estimate_quantiles" in f else f
-                               for fam, f in cal["families"].items()}
-            monkeypatch.setattr(model, "calibration", cal)
-        auto_solve._ranked.cache_clear()
+            cal = loader.load(name).calibration
+            use_calibration(monkeypatch, name, dataclasses.replace(
+                cal, neural_seconds=0.0, neural_seconds_batched=0.0,
+                factors={k: factor_scale * v for k, v in cal.factors.items()},
+                estimate_quantiles=factor_scale * np.asarray(cal.estimate_quantiles),
+                families={fam: dict(f, estimate_quantiles=[factor_scale * v for v in
+                                                           f["estimate_quantiles"]])
+                          if "estimate_quantiles" in f else f
+                          for fam, f in cal.families.items()}))
 
     return patch

@@ -5,12 +5,10 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import nh_operators as nh
-from nh_operators.data import generate_dataset
 from nh_operators.evaluation import loss_per_sample
 from nh_operators.solvers import sensor_spline_params
-from nh_operators.solving import calibrate, raw_estimate, residuals, spline_rows
-from nh_operators.solving.acceptance import acceptance_rate
-from nh_operators.solving.estimate import _integration_matrix, sensor_force
+from nh_operators.solving import raw_estimate, residuals, spline_rows
+from nh_operators.solving.estimate import _integration_matrix
 
 SHO = nh.PHYSICAL_POTENTIALS["sho"]
 
@@ -74,42 +72,6 @@ def test_residuals_reject_a_grid_not_starting_at_zero():
         residuals(np.zeros((1, 3)), np.zeros((1, 3)), *sho_force(), t=np.array([0.1, 0.2, 0.3]))
 
 
-class _Noisy:
-    """Truth plus a known smooth perturbation of amplitude a_i per potential."""
-
-    def __init__(self, dataset, amplitudes):
-        self.ds, self.a = dataset, amplitudes
-
-    def __call__(self, V, t):
-        idx = [int(np.flatnonzero((np.asarray(self.ds.V) == row).all(axis=1))[0]) for row in V]
-        bump = np.sin(np.pi * t / 2)[None]
-        return (np.asarray(self.ds.q)[idx] + self.a[idx, None] * bump,
-                np.asarray(self.ds.p)[idx] - self.a[idx, None] * bump)
-
-
-def test_calibration_factor_is_the_quantile_of_true_over_raw():
-    ds = generate_dataset(40, seed=5, progress=False)
-    a = np.geomspace(1e-4, 1e-1, 40)
-    method = _Noisy(ds, a)
-    cal = calibrate(method, ds, quantile=0.9, batch=16)
-    q, p = method(np.asarray(ds.V), nh.TIMES)
-    raw = raw_estimate(q, p, *sensor_force(np.asarray(ds.V)))
-    true = loss_per_sample(q, p, np.asarray(ds.q), np.asarray(ds.p))["L_tot"]
-    assert cal["factor"] == pytest.approx(np.quantile(true / raw, 0.9))
-    assert cal["n"] == 40 and cal["dataset_checksum"] == ds.checksum
-    # 90 % of the calibrated estimates are above the true loss
-    assert np.mean(cal["factor"] * raw >= true) == pytest.approx(0.9, abs=0.03)
-    assert cal["estimate_quantiles"][0] == pytest.approx(cal["factor"] * raw.min())
-
-
-def test_acceptance_rate_interpolates_in_log_tolerance():
-    cal = {"probabilities": [0.0, 0.5, 1.0], "estimate_quantiles": [1e-6, 1e-4, 1e-2]}
-    assert acceptance_rate(cal, 1e-7) == 0.0
-    assert acceptance_rate(cal, 1e-5) == pytest.approx(0.25)
-    assert acceptance_rate(cal, 1e-4) == pytest.approx(0.5)
-    assert acceptance_rate(cal, 1.0) == 1.0
-
-
 def test_estimate_at_the_grid_is_the_grid_estimate():
     from nh_operators.solving import estimate_at
 
@@ -154,9 +116,9 @@ def test_the_estimate_is_of_the_asked_times_not_of_the_grid():
     _, _, late_raw = estimate_at(q_bad[None], p[None], *sho_force(), [1.8])
     assert late_raw[0] > 1e4 * early_raw[0]
     # the network path: a shipped network's estimate changes with the asked times
-    from nh_operators.solving import auto_solve
+    from nh_operators.solving.network_pass import neural_solve
 
-    ests = [auto_solve.neural_solve("deeponet-alg1", SHO, "exact V", np.array([t]))[2]
+    ests = [neural_solve("deeponet-alg1", SHO, "exact V", np.array([t]))[2]
             for t in nh.TIMES[1::14]]
     assert max(ests) > 3 * min(ests)
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from calibration_helpers import use_calibration
 
 import nh_operators as nh
 from nh_operators.evaluation import loss_per_sample
@@ -69,40 +70,37 @@ def test_auto_uses_networks_only_where_allowed(scene):
 
 def test_bad_rows_are_named(scene):
     V = scene[0]
-    with pytest.raises(ValueError, match=r"row 2: the state \(q0 = 0.5, p0 = 3\) has energy"):
+    with pytest.raises(ValueError,
+                       match=r"row 2: the state \(q0 = 0.5, p0 = 3\) has energy") as err:
         nh.solve_many(V, [1.0], q0=0.5, p0=[0, 0, 3.0] + [0] * (len(V) - 3))
+    assert isinstance(err.value, nh.solving.RowError) and err.value.row == 2
     with pytest.raises(ValueError, match=r"t must have shape \(M,\) or \(N, M\)"):
         nh.solve_many(V, np.zeros((2, 3)))
 
 
 def test_solve_many_weighs_per_row_batched_costs_not_one_calls(monkeypatch):
-    from nh_operators.solving import auto_solve
+    import dataclasses
 
-    name = "phaseonet-paper"
-    model = auto_solve._model(name)
-    cal = dict(model.calibration)
-    n = len(cal["classical_tols"])
+    from nh_operators.solving import InputKind, load, ranking
+
+    name, sensors = "phaseonet-paper", InputKind.SENSORS
+    cal = load(name).calibration
+    n = len(cal.classical_tols)
     # one call of the network costs more than one classical call, a batched row less
-    cal.update(neural_seconds=1.0, neural_seconds_batched=1e-6,
-               classical_seconds_sensors=[0.5] * n,
-               classical_seconds_sensors_batched=[1e-4] * n)
-    monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
-    ids = tuple(id(auto_solve._calibration(m)) for m in auto_solve._networks())
+    classical = dict(cal.classical)
+    classical[sensors] = dict(classical[sensors], full=np.full(n, 0.5),
+                              batched=np.full(n, 1e-4))
+    cal = dataclasses.replace(cal, neural_seconds=1.0, neural_seconds_batched=1e-6,
+                              classical=classical)
+    use_calibration(monkeypatch, name, cal)
     tol = 1e-2
-    share = auto_solve.acceptance_rate(cal, tol, kind="sensors")  # the input's kind
+    share = cal.acceptance_rate(tol, sensors)  # the input's kind
     assert share > 0.5
-    single, _ = auto_solve._ranked(tol, "sensors", ids)
-    batched, _ = auto_solve._ranked(tol, "sensors", ids, True)
+    single, _ = ranking.ranked(tol, sensors)
+    batched, _ = ranking.ranked(tol, sensors, True)
     assert name not in [c[0] for c in single]
     (expected,) = [c[1] for c in batched if c[0] == name]
     assert expected == pytest.approx(1e-6 + (1 - share) * 1e-4)
-    # without batched keys (older calibrations) the single-call costs are used
-    for key in ("neural_seconds_batched", "classical_seconds_sensors_batched"):
-        del cal[key]
-    auto_solve._ranked.cache_clear()
-    assert name not in [c[0] for c in auto_solve._ranked(tol, "sensors", ids, True)[0]]
-    auto_solve._ranked.cache_clear()
 
 
 def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
@@ -111,8 +109,6 @@ def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
     at tol 1e-3 on 10,000 Algorithm-1 rows 2 % went to phaseonet-alg1 instead of ~57 %).
     Here phaseonet-paper is made the cheapest candidate with an estimate that always
     fails, every network but the two PhaseONets too dear to try."""
-    from nh_operators.solving import auto_solve
-
     _calibrations(monkeypatch, {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9},
                   failing=("phaseonet-paper",))
     ds = nh.generate_dataset(30, seed=77, progress=False)
@@ -128,14 +124,13 @@ def test_a_row_one_network_rejects_goes_on_to_the_next(monkeypatch):
     one = nh.solve(V[i], nh.TIMES, tol=tol)
     assert [(a["method"], a["accepted"]) for a in one.tried] == [
         ("phaseonet-paper", False), ("rk4", True)]
-    auto_solve._ranked.cache_clear()
 
 
 def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
     """A network offered 2 * PILOT rows or more answers PILOT of them first and goes on
     only if the share it accepted pays for its cost: one that rejects every row is not
     run on the rest."""
-    from nh_operators.solving import auto_solve, many
+    from nh_operators.solving import many
 
     monkeypatch.setattr(many, "PILOT", 8)
     _calibrations(monkeypatch, {"phaseonet-paper": 1e-9}, failing=("phaseonet-paper",))
@@ -146,7 +141,6 @@ def test_a_pilot_stops_a_network_that_rejects_the_rows(monkeypatch):
     assert entry["method"] == "phaseonet-paper" and entry["rows"] == 8
     assert entry["accepted"] == 0 and "not worth its cost" in entry["stopped"]
     assert not sol.neural.any()
-    auto_solve._ranked.cache_clear()
 
 
 def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
@@ -154,7 +148,7 @@ def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
     candidate answers the same pilot rows, and the one that accepted rows there goes on
     first. phaseonet-paper (ranked first, its estimate always failing) answers only the
     pilot; phaseonet-alg1 answers the rest."""
-    from nh_operators.solving import auto_solve, many
+    from nh_operators.solving import many
 
     monkeypatch.setattr(many, "PILOT", 8)
     _calibrations(monkeypatch, {"phaseonet-paper": 1e-9, "phaseonet-alg1": 2e-9},
@@ -168,15 +162,12 @@ def test_the_pilot_orders_the_networks_by_what_they_accepted_there(monkeypatch):
     assert set(many_sol.methods[many_sol.neural]) == {"phaseonet-alg1"}
     q_ref, p_ref = nh.integrate_sensors(V, nh.TIMES, substeps=256, check_resolution=False)
     assert np.all(loss_per_sample(many_sol.q, many_sol.p, q_ref, p_ref)["L_tot"] <= 1e-2)
-    auto_solve._ranked.cache_clear()
 
 
 def test_a_row_the_grid_estimate_refuses_is_estimated_again_on_the_finer_grid(monkeypatch):
     """phaseonet-paper's estimate on the grid is made to fail everywhere (factors 1e12);
     its finer look (solving/refine.py, calibrated on its own) still accepts rows, and
     every accepted answer meets tol against the sensor spline's trajectory."""
-    from nh_operators.solving import auto_solve
-
     _calibrations(monkeypatch, {"phaseonet-paper": 1e-9}, failing=("phaseonet-paper",),
                   grid_only=True)
     V = np.asarray(nh.generate_dataset(30, seed=79, progress=False, normalization="batch",
@@ -188,7 +179,6 @@ def test_a_row_the_grid_estimate_refuses_is_estimated_again_on_the_finer_grid(mo
     assert np.all(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"] <= tol)
     # the estimate returned is the finer look's, calibrated with its own factors
     assert np.all(sol.error_estimate[sol.neural] <= tol)
-    auto_solve._ranked.cache_clear()
 
 
 def _calibrations(monkeypatch, costs, failing=(), grid_only=False):
@@ -196,21 +186,22 @@ def _calibrations(monkeypatch, costs, failing=(), grid_only=False):
     its whole calibration set (share 1), costs ``costs[name]`` seconds (1e3 where not
     given), and the estimates of the networks in ``failing`` always fail (factors 1e12;
     ``grid_only``: only on the grid, their finer look keeps its factors)."""
-    from nh_operators.solving import auto_solve
+    import dataclasses
+
+    from nh_operators.solving import CallKind, load
 
     for name in nh.available_pretrained():
-        model = auto_solve._model(name)
-        cal = dict(model.calibration)
-        cal["estimate_quantiles"] = [1e-12] * len(cal["probabilities"])
-        cal["families"] = {fam: dict(f, estimate_quantiles=cal["estimate_quantiles"])
-                           for fam, f in cal["families"].items()}
-        cal["neural_seconds"] = cal["neural_seconds_batched"] = costs.get(name, 1e3)
+        cal = load(name).calibration
+        never = np.full(len(cal.probabilities), 1e-12)
+        factors = dict(cal.factors)
         if name in failing:
-            for key in ("factors", "factors_sensors", "factors_early", "factors_sensors_early"):
-                cal[key] = [1e12] * len(cal[key])
-            cal["factor"] = 1e12
-            if not grid_only:
-                for key in ("factors_fine", "factors_sensors_fine"):
-                    cal.pop(key, None)
-        monkeypatch.setattr(model, "calibration", cal)
-    auto_solve._ranked.cache_clear()
+            for key in list(factors):
+                if key[1] is not CallKind.FINE:
+                    factors[key] = np.full(len(factors[key]), 1e12)
+                elif not grid_only:
+                    del factors[key]
+        use_calibration(monkeypatch, name, dataclasses.replace(
+            cal, estimate_quantiles=never, factors=factors,
+            families={fam: dict(f, estimate_quantiles=never)
+                      for fam, f in cal.families.items()},
+            neural_seconds=costs.get(name, 1e3), neural_seconds_batched=costs.get(name, 1e3)))

@@ -2,24 +2,23 @@ import json
 import shutil
 
 import h5py
-
 import numpy as np
 import pytest
 
 import nh_operators as nh
-from nh_operators.data._h5 import checksum as h5_checksum
 from nh_operators.cli import main
+from nh_operators.data._h5 import checksum as h5_checksum
 from nh_operators.potentials import in_domain
 from nh_operators.solving import (
-    SENSOR_FAMILIES,
     WEIGHTS,
+    Calibration,
     available_pretrained,
-    bin_factors,
     export_pretrained,
     network_domain,
     pretrained,
     resolve_pretrained,
 )
+from nh_operators.solving.acceptance import SENSOR_FAMILIES, bin_factors
 from nh_operators.training import load_checkpoint
 
 
@@ -49,7 +48,10 @@ def test_shipped_model_loads_offline_and_reproduces_its_metrics(name):
 @pytest.mark.parametrize("name", available_pretrained())
 def test_shipped_model_is_calibrated_for_solve(name):
     cal = json.loads((WEIGHTS / name / "calibration.json").read_text())
-    assert cal["quantile"] == 0.999 and cal["confidence"] == 0.95
+    assert cal["format"] == 2  # the format Calibration writes
+    assert Calibration.from_json(cal).to_json() == cal  # read and written back unchanged
+    info = cal["info"]
+    assert info["quantile"] == 0.999 and info["confidence"] == 0.95
     fams = cal["families"]
     # at least 2,000 samples of its own distribution, and every other family tried
     assert fams["in distribution"]["admitted"] >= 1800
@@ -58,45 +60,49 @@ def test_shipped_model_is_calibrated_for_solve(name):
     assert set(fams) == set(SENSOR_FAMILIES) | set(SENSOR_FAMILIES.values())
     _assert_factors(cal)
     # calibrated on potentials from neither the training set nor the test set
-    assert cal["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
+    assert info["dataset_checksum"] not in (load_checkpoint(WEIGHTS / name)["data_checksum"],)
     assert cal["estimate_quantiles"] == sorted(cal["estimate_quantiles"])
-    assert len(cal["classical_seconds"]) == len(cal["classical_tols"])
+    for table in cal["costs"]["classical_seconds"].values():
+        assert all(len(v) == len(cal["costs"]["classical_tols"]) for v in table.values())
 
 
 def _assert_factors(cal):
     """Each bin's factor is the largest bound in it over the families of exact potentials
     (for sensor values: of sensor values; the largest of all where no sample fell), never
-    below a lower bin's; the bins hold every admitted sample."""
+    below a lower bin's; the bins hold every admitted sample (``cal``: format 2)."""
     sensor = set(SENSOR_FAMILIES.values())
-    for key, pick in (("factors", lambda fam: fam not in sensor),
-                      ("factors_sensors", lambda fam: fam in sensor)):
+    for truth, pick in (("exact", lambda fam: fam not in sensor),
+                        ("sensors", lambda fam: fam in sensor)):
         fams = [f for fam, f in cal["families"].items() if pick(fam)]
-        fine = ("_fine",) if key + "_fine" in cal else ()  # a network that refines
-        for calls in ("", "_early") + fine:  # calls of the whole orbit, early calls
-            per_bin = [[f["bins" + calls][k]["bound"] for f in fams
-                        if f["bins" + calls][k]["n"]] for k in range(len(cal["limits"]) + 1)]
+        for call, factors in cal["factors"][truth].items():  # plain, early (, fine)
+            bins = "bins" if call == "plain" else "bins_" + call
+            per_bin = [[f[bins][k]["bound"] for f in fams if f[bins][k]["n"]]
+                       for k in range(len(cal["limits"]) + 1)]
             top = max(b for bs in per_bin for b in bs)
-            assert cal[key + calls] == list(np.maximum.accumulate([max(bs) if bs else top
-                                                                   for bs in per_bin]))
-            assert cal[key + calls] == bin_factors(fams, "bins" + calls)
-    assert cal["factor"] == cal["factors"][0]
+            assert factors == list(np.maximum.accumulate([max(bs) if bs else top
+                                                          for bs in per_bin]))
+            assert factors == bin_factors(fams, bins)
     assert all(sum(c["n"] for c in f["bins"] + f["bins_early"]) == f["admitted"]
                for f in cal["families"].values())
     assert cal["limits"] == [1e-3, 1e-2]
 
 
-def test_calibrate_pretrained_without_writing(tmp_path):
+def test_calibrate_pretrained_writes_only_where_told(tmp_path):
     from nh_operators.data import generate_dataset
-    from nh_operators.solving import calibrate_pretrained, upper_quantile
+    from nh_operators.solving import calibrate_pretrained
+    from nh_operators.solving.acceptance import upper_quantile
     from nh_operators.solving.samples import SENSOR_PASSES
 
     path = WEIGHTS / "deeponet-alg1" / "calibration.json"
     before = path.read_bytes()
     other = generate_dataset(20, seed=10, progress=False, normalization="batch",
                              pool=100).potentials()
-    cal = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
-                               other=other, n_timing=2, n_ood=12, write=False)
-    assert path.read_bytes() == before and cal["n"] == 30
+    out = tmp_path / "deeponet-alg1.json"
+    calibration = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
+                                       other=other, n_timing=2, n_ood=12, out=out)
+    cal = calibration.to_json()
+    assert path.read_bytes() == before and cal["info"]["n"] == 30
+    assert json.loads(out.read_text()) == cal  # written where told, in format 2
     fams = cal["families"]
     assert fams["in distribution"]["drawn"] == 30 and fams["sensors"]["drawn"] == 30
     # sensor values: every admitted row at SENSOR_PASSES sets of times
@@ -110,20 +116,29 @@ def test_calibrate_pretrained_without_writing(tmp_path):
     assert all(c["bound"] <= f["ratio_max"] for f in fams.values() for c in f["bins"]
                if c["n"])
     assert upper_quantile(np.arange(1.0, 1001.0), 0.5) == pytest.approx(500, rel=0.1)
-    assert cal["neural_seconds"] > 0 and all(s > 0 for s in cal["classical_seconds"])
+    assert calibration.neural_seconds > 0
+    assert all(s > 0 for s in cal["costs"]["classical_seconds"]["bspline"]["full"])
+    # measure="costs" keeps the shipped factors; an unknown measure is named
+    shipped = json.loads(before)
+    again = calibrate_pretrained("deeponet", generate_dataset(30, seed=9, progress=False),
+                                 n_timing=2, measure="costs").to_json()
+    assert again["factors"] == shipped["factors"] and again["families"] == shipped["families"]
+    with pytest.raises(ValueError, match="'both' is not a valid Measure"):
+        calibrate_pretrained("deeponet", "x.h5", measure="both")
 
 
 def test_a_phaseonet_is_calibrated_on_the_finer_grid_too():
     """A network that answers at any time (refines) gets factors for its estimate on the
     finer grid (calls of the whole orbit only); another does not."""
     from nh_operators.data import generate_dataset
-    from nh_operators.solving import calibrate_pretrained, refines
+    from nh_operators.solving import calibrate_factors, refines
 
     assert refines("phaseonet-paper") and not refines("deeponet-paper")
     data = generate_dataset(30, seed=9, progress=False, normalization="batch", pool=40)
-    cal = calibrate_pretrained("phaseonet-paper", data, n_timing=2, n_ood=12, write=False)
+    cal = calibrate_factors("phaseonet-paper", data, n_ood=12)
+    assert "costs" not in cal  # calibrate_factors measures no time
     _assert_factors(cal)
-    assert len(cal["factors_fine"]) == len(cal["factors_sensors_fine"]) == 3
+    assert len(cal["factors"]["exact"]["fine"]) == len(cal["factors"]["sensors"]["fine"]) == 3
     for fam in cal["families"].values():  # the finer grid's samples: the early calls' not
         assert sum(c["n"] for c in fam["bins_fine"]) == sum(c["n"] for c in fam["bins"])
 

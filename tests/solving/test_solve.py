@@ -4,12 +4,13 @@ import warnings
 
 import numpy as np
 import pytest
+from calibration_helpers import fake_calibration, use_calibration
 
 import nh_operators as nh
 from nh_operators.evaluation import loss_per_sample
 from nh_operators.models import predict
 from nh_operators.solvers import solve_classical
-from nh_operators.solving import auto_solve as solve_module
+from nh_operators.solving.network_pass import neural_solve
 
 T = np.array([1.7, 0.05, 0.6, 2.0, 1.1])  # unsorted on purpose
 SHO = nh.PHYSICAL_POTENTIALS["sho"]
@@ -63,18 +64,12 @@ def test_forced_network_warns_when_its_estimate_exceeds_tol_or_the_input_is_outs
         nh.solve("sho", [0.5, 2.5], method="deeponet-alg1")
 
 
-def fake_calibration(factor, neural_seconds, estimates):
-    return {"factor": factor, "probabilities": [0.0, 0.5, 1.0],
-            "estimate_quantiles": estimates, "neural_seconds": neural_seconds,
-            "classical_tols": [1e-1, 1e-12], "classical_seconds": [1.0, 1.0]}
-
-
 def test_auto_uses_a_network_expected_to_be_cheaper_and_falls_back_when_its_estimate_fails(
         monkeypatch):
-    model = solve_module._model("deeponet-alg1")
     # 10 µs: cheaper than every shipped network's calibrated cost, so it is tried first
-    monkeypatch.setattr(model, "calibration", fake_calibration(1.0, 1e-5, [1e-9, 1e-8, 1e-7]))
-    _, _, estimate = solve_module.neural_solve("deeponet-alg1", SHO, "exact V", T)
+    use_calibration(monkeypatch, "deeponet-alg1",
+                    fake_calibration(1.0, 1e-5, [1e-9, 1e-8, 1e-7]))
+    _, _, estimate = neural_solve("deeponet-alg1", SHO, "exact V", T)
     loose = nh.solve("sho", T, tol=10 * estimate)
     assert loose.kind == "neural" and loose.method == "deeponet-alg1"
     assert loose.error_estimate == pytest.approx(estimate)
@@ -111,16 +106,14 @@ def test_solve_restores_thread_counts():
 
 
 def test_the_classical_cost_weighed_is_the_one_of_the_input_kind(monkeypatch, pots):
-    model = solve_module._model("deeponet-alg1")
-    cal = fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7])
-    cal["classical_seconds"] = [1e-6, 1e-6]          # B-spline potentials: cheap
-    cal["classical_seconds_formula"] = [1.0, 1.0]    # formulas: expensive
-    monkeypatch.setattr(model, "calibration", cal)
-    _, _, estimate = solve_module.neural_solve("deeponet-alg1", SHO, "exact V", T)
+    # B-spline potentials and sensor values: cheap; formulas: expensive
+    cal = fake_calibration(1.0, 1e-3, [1e-9, 1e-8, 1e-7],
+                           kinds={"bspline": [1e-6, 1e-6], "sensors": [1e-6, 1e-6]})
+    use_calibration(monkeypatch, "deeponet-alg1", cal)
+    _, _, estimate = neural_solve("deeponet-alg1", SHO, "exact V", T)
     assert nh.solve("sho", T, tol=10 * estimate).kind == "neural"
     # (other shipped networks keep their real calibrations and may still be tried)
     bspline = nh.solve(pots[0], T, tol=1.0)
     assert "deeponet-alg1" not in [a["method"] for a in bspline.tried]
-    # sensor values fall back to the B-spline timing when the calibration has none
     sensors = nh.solve(pots.V(nh.SENSORS)[0], T, tol=1.0)
     assert "deeponet-alg1" not in [a["method"] for a in sensors.tried]
