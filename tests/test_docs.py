@@ -124,7 +124,8 @@ def test_api_pages_name_only_objects_that_exist():
         assert obj is not None, name
 
 
-@pytest.mark.parametrize("page", ["install", "quickstart", "problem", "distributions",
+@pytest.mark.parametrize("page", ["install", "quickstart", "usage", "measurements",
+                                  "problem", "distributions",
                                   "architectures", "architecture",
                                   "training", "training_at_scale", "speed_accuracy", "extending", "api",
                                   "numerics", "models", "evaluation", "solve", "pretrained",
@@ -143,3 +144,48 @@ def test_gallery_scripts_have_a_title_and_the_plot_prefix():
         assert head.startswith('"""'), f"{script.name}: needs a docstring with a title"
         title, underline = head[3:].strip().splitlines()[:2]
         assert set(underline) == {"="} and len(underline) >= len(title), script.name
+
+
+README = DOCS.parent / "README.md"
+
+
+def _readme_sections():
+    """The README's ``## `` sections: {title: body}, in order."""
+    sections, title = {}, None
+    for line in README.read_text(encoding="utf-8").splitlines():
+        if line.startswith("## "):
+            title = line[3:].strip()
+            sections[title] = []
+        elif title is not None:
+            sections[title].append(line)
+    return {k: "\n".join(v) for k, v in sections.items()}
+
+
+def test_readme_leads_within_150_lines():
+    """What a newcomer needs comes first; the rest is in the docs (issue 42)."""
+    lines = README.read_text(encoding="utf-8").splitlines()
+    before_links = lines[:next(i for i, line in enumerate(lines)
+                               if line.startswith("## Where to read on"))]
+    assert len(before_links) <= 150, len(before_links)
+    assert list(_readme_sections())[:5] == ["Set up", "Quick start", "Which method for which job",
+                                            "Headline results", "What it cannot do yet"]
+    setup = _readme_sections()["Set up"]
+    assert "make demo" in setup and "make test" in setup and "minute" in setup
+    assert "numba" in _readme_sections()["Quick start"]  # the compile stall of a new formula
+    jobs = _readme_sections()["Which method for which job"]
+    for call in ("nh.solve(", "nh.solve_many(", "nh.build_model(", "torchrun",
+                 "--preset paper-standard", "docs/any_problem.md"):
+        assert call in jobs, call
+
+
+def test_readme_headline_figures_each_state_their_command():
+    for bullet in _readme_sections()["Headline results"].split("\n- ")[1:]:
+        assert re.search(r"`(python benchmarks/|nh-operators )", bullet), bullet[:80]
+
+
+def test_readme_and_moved_pages_carry_no_dated_remarks():
+    for path in (README, DOCS / "usage.md", DOCS / "measurements.md"):
+        text = path.read_text(encoding="utf-8")
+        for pattern in (r"20\d\d-\d\d-\d\d", r"previous session", r"faster machine",
+                        r"busier machine", r"minutes apart"):
+            assert not re.search(pattern, text), (path.name, pattern)

@@ -5,19 +5,46 @@ Thin: parse the arguments, then call the library. Each command family lives in i
 module with a ``register(sub)`` that adds its subcommands.
 """
 
+import argparse
 import sys
 
-from . import evaluation, export, generate, predict, training
+from . import demo, evaluation, export, generate, predict, training
 from ._options import Parser
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "DESCRIPTION", "EPILOG"]
+
+#: What ``nh-operators --help`` says before the list of commands (plain text, for users).
+DESCRIPTION = """\
+Trajectories of a particle in a 1-D potential V(q) on [0, 1], from neural operators
+(Neural Hamilton's networks and PhaseONet, shipped trained) or from classical solvers,
+and the datasets, training and measurements behind them. New here? Run "demo" (every
+method on five physical potentials), then "predict" with a potential of your own.
+"""
+
+#: What ``nh-operators --help`` says after the list of commands.
+EPILOG = """\
+example:
+  nh-operators predict --potential "8*(q-0.5)**2" --times 0.5 1 1.5 --tol 1e-8
+
+Each command explains its options: nh-operators COMMAND --help
+"""
 
 
-def build_parser():
-    """The ``nh-operators`` argument parser with every subcommand."""
-    parser = Parser(prog="nh-operators", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-    for family in (generate, predict, training, evaluation, export):
+def build_parser() -> argparse.ArgumentParser:
+    """The ``nh-operators`` argument parser with every subcommand.
+
+    Returns:
+        the parser; ``parse_args`` sets ``run`` (the command's function) on the result.
+
+    Example:
+        >>> build_parser().parse_args(["demo", "--out", "d"]).out
+        'd'
+    """
+    parser = Parser(prog="nh-operators", description=DESCRIPTION, epilog=EPILOG,
+                    formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                title="commands")
+    for family in (generate, demo, predict, training, evaluation, export):
         family.register(sub)
     return parser
 

@@ -1,55 +1,12 @@
-"""``nh-operators predict`` and ``demo``: trajectories of typed and physical potentials.
+"""``nh-operators predict``: the trajectory of one potential typed as a formula or named.
 
 The library is imported inside the commands, so that ``--help`` and argument errors load
 neither torch nor numba.
 """
 
 import os
-import warnings
 
 from ._options import figure_file, positive_float, positive_int
-
-
-def _demo(args):
-    from .._constants import TIMES
-    from ..evaluation import (CLASSICAL_BASELINES, classical_physical_table,
-                              physical_reference, plot_physical_potentials, plot_trajectory,
-                              save_figure)
-    from ..potentials import PHYSICAL_POTENTIALS
-    from ..solving import available_pretrained, pretrained, solve
-
-    os.makedirs(args.out, exist_ok=True)
-    networks = {name: pretrained(name) for name in available_pretrained()}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        table = classical_physical_table(baselines={**CLASSICAL_BASELINES, **networks})
-    outside = sorted({str(w.message).split(":")[0] for w in caught
-                      if type(w.message).__name__ == "OutOfDomainWarning"})
-    names = list(PHYSICAL_POTENTIALS)
-    print("Classical solvers and the shipped networks on the physical potentials: L_tot "
-          "against the exact solution")
-    print("(SHO, MFF) or DOP853 at 1e-13; sensor methods and networks see V at the 100 "
-          "sensors only.\n")
-    print(f"{'method':<22}" + "".join(f"{n:>13}" for n in names) + f"{'µs/traj':>10}")
-    for method, row in table.items():
-        micro = 1e6 * sum(row[n]["seconds"] for n in names) / len(names)
-        print(f"{method:<22}" + "".join(f"{row[n]['L_tot']:>13.3e}" for n in names) + f"{micro:>10.0f}")
-    if outside:
-        print(f"\nOutside the training domain (extrapolation): {'; '.join(outside)}")
-    trajectories = {n: physical_reference(n) for n in names}
-    path = os.path.join(args.out, "physical_potentials.png")
-    save_figure(plot_physical_potentials(PHYSICAL_POTENTIALS, trajectories), path)
-    print(f"\nfigure: {path}")
-    if networks:
-        best = min(networks, key=lambda m: table[m]["double_well"]["L_tot"])
-        pot = PHYSICAL_POTENTIALS["double_well"]
-        sol = solve(pot, TIMES, method=best)
-        q, p = trajectories["double_well"]
-        path = os.path.join(args.out, f"double_well_{best}.png")
-        save_figure(plot_trajectory(pot, TIMES, q, p, sol.q, sol.p, label=best,
-                                    title=f"double well: {best} (estimated L_tot "
-                                    f"{sol.error_estimate:.2g})"), path)
-        print(f"figure: {path} (nh.solve('double_well', t, method={best!r}))")
 
 
 def _predict(args):
@@ -121,9 +78,6 @@ def _orbit_figure(pot, formula, times, sol, ref, args):
 
 def register(sub):
     """Add this module's commands to the subparsers ``sub``."""
-    demo = sub.add_parser("demo", help="classical solvers on the physical potentials")
-    demo.add_argument("--out", default="demo", help="folder for the figure")
-    demo.set_defaults(run=_demo)
     pr = sub.add_parser("predict", help="one potential typed as a formula: the trajectory "
                         "table and figure")
     pr.add_argument("--potential", required=True, help="an expression in q, e.g. "

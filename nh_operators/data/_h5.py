@@ -40,7 +40,14 @@ _BLOCK = 65536
 
 
 def checksum(h5file):
-    """SHA-256 over every array's name, shape, dtype and bytes, read in blocks."""
+    """SHA-256 over every array's name, shape, dtype and bytes, read in blocks.
+
+    Only the arrays enter it: no attribute (package version, generator parameters, drops),
+    so a dataset keeps its checksum across package versions as long as its bytes are the
+    same. The bytes' last bits depend on the OpenBLAS kernel numpy picks for the CPU (the
+    generator's Gaussian draw calls ``np.linalg.cholesky``), so the same command can give
+    another checksum on another CPU (``tests/data/test_checksum.py`` pins one kernel).
+    """
     digest = hashlib.sha256()
     for name in FIXED + tuple(_rows("states" in h5file.attrs)):
         data = h5file[name]

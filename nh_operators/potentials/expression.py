@@ -9,9 +9,12 @@ derivative dV/dq is the exact symbolic derivative of the same tree.
 """
 
 import ast
+import difflib
 import math
 
 import numpy as np
+
+from .physical import PHYSICAL_POTENTIALS
 
 __all__ = ["FUNCTIONS", "parse_potential", "parse_expression"]
 
@@ -62,6 +65,21 @@ def _fail(text, node, why):
                      f"parentheses and {', '.join(sorted(FUNCTIONS))}")
 
 
+def _unknown_name(name: str, variable: str) -> str:
+    """Why ``name`` is refused, with close matches and the physical potentials' names.
+
+    Example:
+        >>> _unknown_name("shoo", "q").split("?")[0]
+        "unknown name 'shoo' (the variable is 'q'); did you mean 'sho'"
+    """
+    known = [variable, *CONSTANTS, *FUNCTIONS, *PHYSICAL_POTENTIALS]
+    close = difflib.get_close_matches(name.lower(), known, n=3, cutoff=0.6)
+    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else "."
+    return (f"unknown name {name!r} (the variable is {variable!r}){hint} A physical "
+            f"potential is given by its name alone: {', '.join(PHYSICAL_POTENTIALS)} "
+            "(nh.PHYSICAL_POTENTIALS)")
+
+
 def _tree(node, text, variable):
     """ast node -> our tree of tuples, refusing everything not on the whitelist."""
     if isinstance(node, ast.Expression):
@@ -75,7 +93,7 @@ def _tree(node, text, variable):
             return ("var",)
         if node.id in CONSTANTS:
             return ("const", CONSTANTS[node.id])
-        _fail(text, node, f"unknown name {node.id!r} (the variable is {variable!r})")
+        _fail(text, node, _unknown_name(node.id, variable))
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
         return (_BINARY[type(node.op)], _tree(node.left, text, variable),
                 _tree(node.right, text, variable))

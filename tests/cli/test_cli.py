@@ -49,6 +49,29 @@ def test_demo_prints_table_and_writes_figure(tmp_path, capsys):
     for name in nh.available_pretrained():
         assert 0 < float(rows[name][0]) < (1e-8 if name.endswith("-states") else 1e-1)
     assert len(list(tmp_path.glob("double_well_*.png"))) == 1
+    # the table is written as Markdown too: cost per trajectory in a batch, its size in
+    # the header, and the same L_tot as printed
+    table = (tmp_path / "table.md").read_text(encoding="utf-8").splitlines()
+    header = next(line for line in table if line.startswith("| method |"))
+    assert header.endswith("| µs / trajectory, batch 200 |")
+    assert "median of 3 calls after a warm-up" in "\n".join(table)
+    md = {cells[0]: cells[1:] for cells in (
+        [c.strip() for c in line.strip("|").split("|")] for line in table
+        if line.startswith("| ") and not line.startswith("| method"))}
+    from nh_operators.evaluation import CLASSICAL_BASELINES
+
+    assert set(md) == {*CLASSICAL_BASELINES, *nh.available_pretrained(), "rk4_exact_16"}
+    assert float(md["paper_rk4"][0]) == pytest.approx(float(rows["paper_rk4"][0]), rel=1e-2)
+    assert all(float(cells[-1].replace(",", "")) > 0 for cells in md.values())
+
+
+def test_help_speaks_to_users(capsys):
+    assert main(["--help"]) == 0
+    text = capsys.readouterr().out
+    assert ":func:" not in text and "``" not in text and ":class:" not in text
+    for command in ("demo", "predict", "generate", "train", "evaluate", "benchmark"):
+        assert f"\n    {command}" in text
+    assert 'nh-operators predict --potential "8*(q-0.5)**2"' in text
 
 
 def test_train_writes_a_run_directory_and_resumes(tmp_path, capsys):

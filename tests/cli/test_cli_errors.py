@@ -93,7 +93,7 @@ def _cases(tmp, data):
         "predict unknown model": (["predict", "--potential", "sho", "--model", "nope"],
                                   "unknown method 'nope'"),
         # no subcommand, unknown flag
-        "no command": ([], "the following arguments are required: command"),
+        "no command": ([], "the following arguments are required: COMMAND"),
         "unknown flag": (["generate", "--sizes", "5"], "unrecognized arguments: --sizes"),
     }
 

@@ -69,3 +69,23 @@ def test_bounded_conditions_are_checked():
 def test_power_tower_does_not_hang_and_overflows_to_inf():
     f = parse_expression("9**9**9**q")
     assert np.isinf(f(np.array([1.0])))[0]
+
+
+@pytest.mark.parametrize("text,close", [("shoo", "'sho'"), ("double_wel", "'double_well'"),
+                                        ("Morse2", "'morse'"), ("smf", "'smff' or 'mff'")])
+def test_a_mistyped_physical_name_suggests_the_physical_names(text, close):
+    physical = ", ".join(nh.PHYSICAL_POTENTIALS)
+    for call in (lambda: nh.parse_potential(text), lambda: nh.solve(text, [0.5])):
+        with pytest.raises(ValueError) as err:
+            call()
+        message = str(err.value)
+        assert f"unknown name {text!r} (the variable is 'q'); did you mean {close}?" in message
+        assert f"given by its name alone: {physical} (nh.PHYSICAL_POTENTIALS)" in message
+
+
+def test_an_unknown_name_far_from_every_name_lists_the_physical_names_only():
+    with pytest.raises(ValueError) as err:
+        parse_expression("zzz * q")
+    message = str(err.value)
+    assert "unknown name 'zzz' (the variable is 'q'). A physical potential" in message
+    assert "did you mean" not in message
