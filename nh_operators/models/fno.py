@@ -141,6 +141,7 @@ class FNO(OperatorNet):
             x = torch.cat([x, state[:, :, None].expand(-1, -1, V.shape[1])], dim=1)
         extra = (self.n_grid,) * (self.query_dim - 1)
         x = x.reshape(*x.shape, *(1,) * len(extra)).expand(*x.shape, *extra)
+        _forget_stale_grid(self.fno, x)
         return self.fno(x, output_shape=(self.n_grid,) * self.query_dim)
 
     def _forward(self, V: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
@@ -163,3 +164,16 @@ class FNO(OperatorNet):
         w = (s - lo).to(y.dtype)
         y = y[:, :, lo] * (1 - w) + y[:, :, lo + 1] * w
         return y.transpose(1, 2)
+
+
+def _forget_stale_grid(fno: torch.nn.Module, x: torch.Tensor) -> None:
+    """Drop neuraloperator's cached positional grid when it is on another device or dtype.
+
+    neuraloperator 2.0's ``GridEmbeddingND`` caches its grid by resolution only, outside
+    the module's tensors, so after ``.cuda()`` or ``.double()`` it would hand back the
+    grid of the first call (a device or dtype mismatch in ``torch.cat``).
+    """
+    embedding = getattr(fno, "positional_embedding", None)
+    cached = getattr(embedding, "_grid", None)
+    if cached and (cached[0].device != x.device or cached[0].dtype != x.dtype):
+        embedding._grid = None

@@ -392,3 +392,18 @@ def test_kl_data_keeps_the_kl_term_in_a_physics_informed_data_object():
     loss = model.train_state.loss_test
     assert len(loss) == 3  # the residual, the initial condition, then the KL column
     np.testing.assert_allclose(loss[-1], 2.0 * net.kl.item() / len(x), rtol=1e-6)
+
+
+def test_fno_forgets_neuraloperators_cached_grid_after_a_cast():
+    # neuraloperator caches its positional grid by resolution only: after a first call in
+    # float32, a cast to float64 (or a move to CUDA) must not reuse the old grid
+    from nh_operators.models import cast_network
+
+    torch.manual_seed(0)
+    net = FNO(hidden_channels=8, n_layers=2, n_modes=8)
+    V, t = torch.randn(2, 100), torch.linspace(0, 2, 7)[:, None]
+    y32 = net((V, t))
+    y64 = cast_network(net, torch.float64)((V.double(), t.double()))
+    assert y64.dtype == torch.float64
+    assert net.fno.positional_embedding._grid[0].dtype == torch.float64
+    torch.testing.assert_close(y64.float(), y32, rtol=1e-5, atol=1e-6)
