@@ -71,7 +71,8 @@ def import_graph(root, package="nh_operators"):
         >>> from pathlib import Path
         >>> import nh_operators
         >>> graph = import_graph(Path(nh_operators.__file__).parent)
-        >>> "nh_operators.solvers.schemes" in {i.target for i in graph["nh_operators.solvers.resolution"]}
+        >>> edges = graph["nh_operators.solvers.resolution"]
+        >>> "nh_operators.solvers.schemes" in {i.target for i in edges}
         True
     """
     mods = _modules(root, package)

@@ -9,15 +9,15 @@ import os
 
 import numpy as np
 
-from .._constants import SENSORS, TIMES, V0
+from .._constants import V0
 from .._dataset_presets import DATASET_PRESETS
 from .._version import __version__
 from ..potentials import BoundedPotential, BoundedPotentialSpace
 from ._h5 import read_dataset, write_streamed
 from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, _Source, label_potentials
 
-__all__ = ["DATASET_PRESETS", "preset_kwargs", "Dataset", "generate_dataset", "label_potentials", "load_dataset",
-           "check_output_path"]
+__all__ = ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset",
+           "label_potentials", "load_dataset", "preset_kwargs"]
 
 
 
@@ -110,7 +110,8 @@ class Dataset:
         """DeepXDE training data of this dataset: an :class:`~nh_operators.OperatorData`.
 
         Branch input V (N, 100) (with states: V, q0, p0 side by side, (N, 102)), trunk
-        input t as (100, 1), targets stack(q, p) of shape (N, 100, 2); the validation part is DeepXDE's "test" set. ``OperatorData`` is a
+        input t as (100, 1), targets stack(q, p) of shape (N, 100, 2); the validation
+        part is DeepXDE's "test" set. ``OperatorData`` is a
         ``deepxde.data.TripleCartesianProd`` with reproducible batches, an optional
         KL term and batched validation.
 

@@ -40,7 +40,7 @@ def label_potentials(potentials, t=TIMES, *, rtol=LABEL_RTOL, energy_tol=ENERGY_
     q, p, info = reference_solve(potentials, t, q0=q0, p0=p0, rtol=rtol, atol=rtol,
                                  full_output=True)
     reasons = []
-    for qi, pi, energy, steps in zip(q, p, info["energy_error"], info["steps"]):
+    for qi, pi, energy, steps in zip(q, p, info["energy_error"], info["steps"], strict=True):
         if steps < 0:
             reasons.append("step budget")
         elif not (np.all(np.isfinite(qi)) and np.all(np.isfinite(pi))):

@@ -12,7 +12,8 @@ Where an input is outside what a method can do, a warning says so:
   for the potential's curvature, an energy drift (a deep well can fail with a step that
   looks fine for its curvature), or a kink; the message names the substeps that suffice.
 - :class:`OutOfDomainWarning`: sensor values unlike anything the paper's generator makes,
-  hence unlike a network's training data; :func:`~nh_operators.potentials.domain_violations` gives the reasons.
+  hence unlike a network's training data;
+  :func:`~nh_operators.potentials.domain_violations` gives the reasons.
 
 Limitation: nothing computed from the sensors alone tells whether they resolve V. A wall
 narrower than the sensor spacing 1/99 leaves only a big jump between two sensors, and a
@@ -34,8 +35,8 @@ from ..potentials import PHYSICAL_POTENTIALS, AnalyticPotential
 from ..potentials.physical import smff
 from ..solvers import RESOLUTION_FRACTION, STABILITY_LIMITS, reference_solve
 
-__all__ = ["EXTREME_CASES", "ENERGY_BOUNDS", "extreme_potentials", "extreme_reference", "case_properties",
-           "stability_table", "stability_markdown"]
+__all__ = ["EXTREME_CASES", "ENERGY_BOUNDS", "extreme_potentials", "extreme_reference",
+           "case_properties", "stability_table", "stability_markdown"]
 
 
 #: name -> one-line description of each extreme case, in report order.

@@ -188,7 +188,7 @@ def plot_work_precision(rows, *, title=None, x="seconds_per_trajectory"):
         xs = transform(np.array([float(r["seconds"]) for r in members]))
         ys = np.array([float(r["mean_L_tot"]) for r in members])
         ax.plot(xs, ys, "o-", color=f"C{i % 10}", markersize=4, linewidth=1.2, label=family)
-        for r, xi, yi in zip(members, xs, ys):  # the knob only: "4" for rk4_sensors_4
+        for r, xi, yi in zip(members, xs, ys, strict=True):  # the knob only: "4" for rk4_sensors_4
             name = str(r["name"])
             note(name[len(family) + 1:] if name.startswith(family + "_") else name, xi, yi,
                  color=f"C{i % 10}")

@@ -114,7 +114,8 @@ def faster_statements(rows, regime="batched"):
 
 def work_precision_markdown(results):
     """The work-precision table (both regimes) and the statements, as markdown."""
-    lines = ["| method | kind | test n | mean L_tot | s/traj, batch 1 | s/traj, large batch | device |",
+    lines = ["| method | kind | test n | mean L_tot | s/traj, batch 1 | s/traj, large batch "
+             "| device |",
              "|---|---|---:|---:|---:|---:|---|"]
     methods = sorted(results["methods"].items(), key=lambda kv: kv[1]["test"]["mean"])
     for name, m in methods:

@@ -15,7 +15,7 @@ class TraONet(OperatorNet):
 
     Each sensor value V(x_j) is embedded by a shared Linear(1, d) plus the sinusoidal
     encoding of its index; a transformer encoder turns these tokens into a memory
-    (B, m, d). Query points go through :class:`~nh_operators.models._decoder.TimeDecoder`
+    (B, m, d). Query points go through the time decoder
     (embedding, sinusoidal encoding of the query coordinates, transformer decoder without
     masks, and an output layer to the outputs — the layer the reference code skipped).
 

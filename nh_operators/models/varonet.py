@@ -185,7 +185,7 @@ class VaRONet(OperatorNet):
         ``by_hand``: the LSTM equations in plain torch operations (twice differentiable
         in ``steps`` on every device; cuDNN's LSTM has no double backward)."""
         outs = []
-        for init, decoder, head in zip(self.init_states, self.decoders, self.heads):
+        for init, decoder, head in zip(self.init_states, self.decoders, self.heads, strict=True):
             state = init(z).view(z.shape[0], -1, self.num_layers, self.hidden_size)
             h0 = state[:, 0].transpose(0, 1)
             c0 = c if self.encoder_cell else state[:, 1].transpose(0, 1)

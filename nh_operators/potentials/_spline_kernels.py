@@ -16,18 +16,19 @@ import hashlib
 import math
 import os
 import types
+from typing import Any
 
 import numba
 
 from .bspline import Q_OFFSET, V_OFFSET
 
-_JIT = dict(nogil=True, cache=True)
+_JIT: dict[str, Any] = dict(nogil=True, cache=True)
 # A kernel that takes a compiled function as an argument cannot be cached: numba keys its
 # entries by the argument's dispatcher object, which is new in every process (entries
 # never match again, the index grows, saving it eventually fails). Such kernels (the
 # steppers, the period quadrature) are inlined instead into the *specialised* kernels of
 # :func:`specialised`, which call the function by a global name and are cached.
-_JIT_FN_ARG = dict(nogil=True, inline="always")
+_JIT_FN_ARG: dict[str, Any] = dict(nogil=True, inline="always")
 
 #: The names a kernel template calls (``FORCE(par, x)``...); :func:`specialised` binds
 #: them to compiled functions.

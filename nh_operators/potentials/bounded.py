@@ -106,7 +106,7 @@ class BoundedPotential:
 
 
 def _check_controls(cq, cv):
-    for row, (q, v) in enumerate(zip(cq, cv)):
+    for row, (q, v) in enumerate(zip(cq, cv, strict=True)):
         n = int(np.sum(np.isfinite(q)))
         where = "" if cq.shape[0] == 1 else f" (potential {row})"
         if n < 4 or not np.all(np.isfinite(q[:n])) or not np.all(np.isfinite(v[:n])):

@@ -32,7 +32,8 @@ FUNCTIONS = {
     "sign": (np.sign, lambda a: ("const", 0.0)),
     "sinh": (np.sinh, lambda a: ("call", "cosh", a)),
     "cosh": (np.cosh, lambda a: ("call", "sinh", a)),
-    "tanh": (np.tanh, lambda a: ("sub", ("const", 1.0), ("pow", ("call", "tanh", a), ("const", 2.0)))),
+    "tanh": (np.tanh, lambda a: ("sub", ("const", 1.0),
+                                 ("pow", ("call", "tanh", a), ("const", 2.0)))),
     "arctan": (np.arctan, lambda a: ("div", ("const", 1.0),
                                      ("add", ("const", 1.0), ("pow", a, ("const", 2.0))))),
     "arcsin": (np.arcsin, lambda a: ("div", ("const", 1.0), ("call", "sqrt", (

@@ -97,7 +97,8 @@ def _gaussian_wells(rng):
         sn, cs = np.sin(np.pi * q), np.cos(np.pi * q)
         return -(2 * np.pi * sn * cs * g + sn**2 * dg)
 
-    terms = f"{base:.2g} + " + " + ".join(f"{a:.2g} e^(-(q-{x:.2g})²/2·{w:.2g}²)" for a, x, w in zip(A, c, s))
+    terms = f"{base:.2g} + " + " + ".join(f"{a:.2g} e^(-(q-{x:.2g})²/2·{w:.2g}²)"
+                                          for a, x, w in zip(A, c, s, strict=True))
     return V, dV, f"2 - sin²(πq) ({terms})"
 
 

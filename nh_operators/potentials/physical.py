@@ -135,7 +135,8 @@ def smff(alpha):
         small = np.abs(u) < 0.1
         us = np.where(small, 1.0, u)
         u2 = u * u
-        series = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725 + 20 * u2**4 / 93555)
+        series = u * (2 / 3 - 4 * u2 / 45 + 12 * u2**2 / 945 - 8 * u2**3 / 4725
+                      + 20 * u2**4 / 93555)
         with np.errstate(over="ignore"):  # sinh overflows to inf for |u| > 710: u/inf² = 0
             return np.where(small, series, 1 / np.tanh(us) - us / np.sinh(us) ** 2)
 
