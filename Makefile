@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN = $(VENV)/bin
 
-.PHONY: demo test test-slow test-all docs bench study clean
+.PHONY: demo test test-slow test-all lint docs bench study clean
 
 $(BIN)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -14,14 +14,18 @@ $(BIN)/.installed: pyproject.toml constraints.txt
 demo: $(BIN)/.installed  ## classical solvers on the five physical potentials: table + figure
 	$(BIN)/nh-operators demo --out demo
 
-test: $(BIN)/.installed  ## the test suite CI runs (slow checks skipped)
-	$(BIN)/python -m pytest -q
+test: $(BIN)/.installed  ## the test suite CI runs (slow checks skipped), on every core
+	$(BIN)/python -m pytest -q -n auto
 
 test-slow: $(BIN)/.installed  ## only the slow checks (CI's second step; about 10 minutes)
 	$(BIN)/python -m pytest -q --runslow -m slow
 
 test-all: $(BIN)/.installed  ## also the slow checks
 	$(BIN)/python -m pytest -q --runslow
+
+lint: $(BIN)/.installed  ## ruff and pyright (basic) on the package, as CI runs them
+	$(BIN)/ruff check nh_operators
+	$(BIN)/basedpyright --pythonpath $(BIN)/python nh_operators
 
 docs: $(BIN)/.installed  ## this site in docs/_build/html, warnings as errors; runs the tutorials (about a minute)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
