@@ -4,6 +4,7 @@ import hashlib
 import json
 import os
 import warnings
+from typing import cast
 
 import h5py
 import numpy as np
@@ -36,6 +37,51 @@ _JSON_ATTRS = ("generator", "dropped", "states")
 def _rows(states):
     """The per-sample arrays of a file: with ``states`` (its attribute), the states too."""
     return {**ROWS, **STATE_ROWS} if states else ROWS
+
+
+def h5_array(group: h5py.Group, name: str) -> h5py.Dataset:
+    """The array ``name`` of an open HDF5 file (h5py types ``f[name]`` as any HDF5 object).
+
+    Args:
+        group: an open ``h5py.File`` or group.
+        name: the array's name.
+
+    Returns:
+        The ``h5py.Dataset`` (nothing is read).
+
+    Example:
+        >>> import io
+        >>> with h5py.File(io.BytesIO(), "w") as f:
+        ...     _ = f.create_dataset("t", data=[1.0, 2.0])
+        ...     h5_array(f, "t").shape
+        (2,)
+    """
+    return cast(h5py.Dataset, group[name])
+
+
+def int_attr(group: h5py.Group, key: str) -> int:
+    """The integer attribute ``key`` of an open HDF5 file, as a Python int.
+
+    Args:
+        group: an open ``h5py.File`` or group.
+        key: the attribute's name.
+
+    Returns:
+        ``int(group.attrs[key])``.
+
+    Raises:
+        KeyError: if the attribute is missing.
+
+    Example:
+        >>> import io
+        >>> with h5py.File(io.BytesIO(), "w") as f:
+        ...     f.attrs["seed"] = 7
+        ...     int_attr(f, "seed")
+        7
+    """
+    return int(cast(int, group.attrs[key]))
+
+
 _BLOCK = 65536
 
 
@@ -131,7 +177,7 @@ def _write_locked(path, partial, n, attrs, source, chunk, progress, resume):
     if resume and os.path.exists(partial):
         try:
             with h5py.File(partial, "r+") as f:
-                if _matches(f, attrs) and int(f.attrs["rows_done"]) > 0:
+                if _matches(f, attrs) and int_attr(f, "rows_done") > 0:
                     kept, chunks = _verified_prefix(f, partial)
                     if kept is not None:
                         done, drops = kept["end"], kept["dropped"]
@@ -155,7 +201,7 @@ def _write_locked(path, partial, n, attrs, source, chunk, progress, resume):
             m = min(chunk, n - done)
             arrays, drops = source.take(m, drops)
             for name in _rows(attrs.get("states")):
-                f[name][done : done + m] = arrays[name]
+                h5_array(f, name)[done : done + m] = arrays[name]
             chunks.append({"end": done + m, "sha256": _chunk_digest(f, done, done + m),
                            "dropped": dict(drops), "state": source.state()})
             done += m
@@ -234,5 +280,5 @@ def read_dataset(path, *, verify=True):
                     f"checksum mismatch in {path!r}: stored {attrs.get('checksum')}, computed "
                     f"{actual}; the file is corrupted or was modified"
                 )
-        arrays = {k: f[k][()] for k in names}
+        arrays = {k: h5_array(f, k)[()] for k in names}
     return arrays, attrs

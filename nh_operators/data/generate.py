@@ -6,6 +6,8 @@ samples, tops up to exactly n, and streams chunks to an HDF5 file (see :mod:`._h
 """
 
 import os
+from collections.abc import Mapping
+from typing import Any, Literal
 
 import numpy as np
 
@@ -21,7 +23,7 @@ __all__ = ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset"
 
 
 
-def preset_kwargs(name):
+def preset_kwargs(name: str) -> dict[str, Any]:
     """``generate_dataset`` keyword arguments of a preset (all but size and seed).
 
     Example:
@@ -48,7 +50,7 @@ class Dataset:
         attrs: dict of metadata (generator parameters, seed, version, checksum, drops).
     """
 
-    def __init__(self, arrays, attrs):
+    def __init__(self, arrays: Mapping[str, np.ndarray], attrs: Mapping[str, Any]):
         self.V = arrays["V"]
         self.x = arrays["x"]
         self.t = arrays["t"]
@@ -63,15 +65,15 @@ class Dataset:
         self.near_separatrix = arrays.get("near_separatrix")
         self.attrs = dict(attrs)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return self.V.shape[0]
 
     @property
-    def seed(self):
+    def seed(self) -> int:
         return int(self.attrs["seed"])
 
     @property
-    def checksum(self):
+    def checksum(self) -> str:
         """The file's SHA-256 checksum, or for a dataset never written, a SHA-256 of its
         arrays (V, t, q, p); checkpoints record it to refuse resuming on other data."""
         if "checksum" in self.attrs:
@@ -91,7 +93,8 @@ class Dataset:
         """All true potentials as one batched :class:`BoundedPotential`."""
         return BoundedPotential(self.control_q, self.control_V)
 
-    def split_indices(self, train_fraction=0.8, seed=None):
+    def split_indices(self, train_fraction: float = 0.8, seed: int | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
         """Random train/validation indices (the paper's 80/20 hold-out).
 
         Args:
@@ -134,17 +137,21 @@ class Dataset:
         return OperatorData((branch[train], trunk), y[train], (branch[val], trunk), y[val],
                             **kwargs)
 
-    def branch_input(self):
+    def branch_input(self) -> np.ndarray:
         """What a network sees of each sample: V (N, 100), or with states V, q0 and p0
         side by side (N, 102)."""
-        if self.q0 is None:
+        q0, p0 = self.q0, self.p0
+        if q0 is None:
             return self.V
-        return np.concatenate([self.V, self.q0[:, None], self.p0[:, None]], axis=1)
+        assert p0 is not None  # stored together with q0
+        return np.concatenate([self.V, q0[:, None], p0[:, None]], axis=1)
 
 
-def generate_dataset(n, seed, path=None, *, chunk=2000, progress=True, resume=True,
-                     force=False, skip=0, rtol=LABEL_RTOL, energy_tol=ENERGY_TOL,
-                     states=None, separatrix_share=0.25, **space_kwargs):
+def generate_dataset(n: int, seed: int, path: str | os.PathLike[str] | None = None, *,
+                     chunk: int = 2000, progress: bool = True, resume: bool = True,
+                     force: bool = False, skip: int = 0, rtol: float = LABEL_RTOL,
+                     energy_tol: float = ENERGY_TOL, states: Literal["energy"] | None = None,
+                     separatrix_share: float = 0.25, **space_kwargs: Any) -> Dataset:
     """Generate n potentials with exact labels on :data:`SENSORS` / :data:`TIMES`.
 
     Potentials are drawn one after another from ``BoundedPotentialSpace(seed,
@@ -268,7 +275,7 @@ def check_output_path(path, *, force=False):
                               "replace it")
 
 
-def load_dataset(path, *, verify=True):
+def load_dataset(path: str | os.PathLike[str], *, verify: bool = True) -> Dataset:
     """Load a dataset written by :func:`generate_dataset`.
 
     Args:

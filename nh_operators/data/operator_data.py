@@ -19,6 +19,7 @@ validation.
 """
 
 import math
+from typing import Any
 
 import numpy as np
 import torch
@@ -27,7 +28,7 @@ from .._backend import ensure_pytorch_backend
 from ..models import batched_forward
 from .physics_loss import PhysicsTerms
 
-dde = ensure_pytorch_backend()
+dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 
 __all__ = ["OperatorData"]
 
@@ -84,7 +85,7 @@ class OperatorData(dde.data.TripleCartesianProd):
         self.cursor = 0
         self.last_loss = None
         self._record = False
-        self._perm = (None, None)
+        self._perm: tuple[int | None, np.ndarray | None] = (None, None)
 
     @property
     def n_train(self):
@@ -94,11 +95,13 @@ class OperatorData(dde.data.TripleCartesianProd):
         """Iterations per epoch (the last batch of an epoch may be smaller)."""
         return math.ceil(self.n_train / batch_size)
 
-    def _permutation(self, epoch):
-        if self._perm[0] != epoch:
+    def _permutation(self, epoch: int) -> np.ndarray:
+        cached, perm = self._perm
+        if perm is None or cached != epoch:
             rng = np.random.default_rng([self.shuffle_seed, epoch])
-            self._perm = (epoch, rng.permutation(self.n_train))
-        return self._perm[1]
+            perm = rng.permutation(self.n_train)
+            self._perm = (epoch, perm)
+        return perm
 
     def train_next_batch(self, batch_size=None):
         if batch_size is None:

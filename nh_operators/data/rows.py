@@ -16,7 +16,7 @@ from typing import final
 import h5py
 import numpy as np
 
-from ._h5 import FORMAT, checksum
+from ._h5 import FORMAT, checksum, h5_array, int_attr
 
 __all__ = ["H5Rows", "MemoryRows", "Rows", "open_rows", "split_indices"]
 
@@ -64,11 +64,11 @@ class Rows(abc.ABC):
 
     t: np.ndarray
     seed: int
-    checksum: str
+    checksum: str | None
     states: bool = False
 
     @abc.abstractmethod
-    def __len__(self):
+    def __len__(self) -> int:
         """Number of rows N."""
 
     @abc.abstractmethod
@@ -177,10 +177,10 @@ class H5Rows(Rows):
             if verify and checksum(f) != self.checksum:
                 raise ValueError(f"checksum mismatch in {self.path!r}: the file is "
                                  "corrupted or was modified")
-            self.t = f["t"][()]
+            self.t = np.asarray(h5_array(f, "t")[()])
             self.states = "states" in f.attrs
-            self.seed = int(f.attrs["seed"])
-            self._n = f["V"].shape[0]
+            self.seed = int_attr(f, "seed")
+            self._n = h5_array(f, "V").shape[0]
 
     def __len__(self):
         return self._n
@@ -193,7 +193,7 @@ class H5Rows(Rows):
         names = self.NAMES + (("q0", "p0") if self.states else ())
         with h5py.File(self.path, "r") as f:
             for name in names:
-                data = f[name]
+                data = h5_array(f, name)
                 rows = np.empty((index.size,) + data.shape[1:], dtype=dtype)
                 pos = 0
                 while pos < wanted.size:

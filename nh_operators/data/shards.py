@@ -159,15 +159,16 @@ class ShardedOperatorData(OperatorData):
             q, p = q.copy(), p.copy()
             q[~self._labelled[positions]] = np.nan
             p[~self._labelled[positions]] = np.nan
-        self._window = (epoch, step, stop, V, q, p, offsets, meta)
+        window = (epoch, step, stop, V, q, p, offsets, meta)
+        self._window = window
+        return window
 
     def _current(self):
         steps = self.steps_per_epoch(self.batch_size)
         epoch, k = divmod(self.cursor, steps)
         w = self._window
         if w is None or w[0] != epoch or not w[1] <= k < w[2]:
-            self._load(epoch, k)
-            w = self._window
+            w = self._load(epoch, k)
         return w, k - w[1]
 
     def train_next_batch(self, batch_size=None):

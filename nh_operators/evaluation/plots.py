@@ -66,7 +66,7 @@ def _draw_trajectory(axes, potential, t, q, p, q_pred, p_pred, norm, label):
             ax.scatter(t, pred, **point)
         ax.set(xlabel="t", ylabel=f"{name}(t)")
     xy = np.column_stack([q, p])
-    segments = LineCollection(np.stack([xy[:-1], xy[1:]], axis=1), cmap=CMAP, norm=norm,
+    segments = LineCollection(list(np.stack([xy[:-1], xy[1:]], axis=1)), cmap=CMAP, norm=norm,
                               linewidth=1.5, label="truth")
     segments.set_array(0.5 * (t[:-1] + t[1:]))
     ax_ph.add_collection(segments)

@@ -4,6 +4,8 @@ Like :mod:`.plots`, every function returns a :class:`matplotlib.figure.Figure` b
 the Agg backend and never shows it.
 """
 
+from typing import Any
+
 import numpy as np
 
 from .._figures import new_figure as _figure
@@ -94,7 +96,9 @@ def plot_loss_histograms(losses, *, bins=40, title=None):
     edges = log_bins(arrays.values(), bins)
     import matplotlib
 
-    colours = matplotlib.colormaps["tab10" if len(arrays) <= 10 else "tab20"].colors
+    # a ListedColormap: .colors is its list of RGB tuples (typed as any colour data)
+    palette: Any = matplotlib.colormaps["tab10" if len(arrays) <= 10 else "tab20"]
+    colours = palette.colors
     fig = _figure(figsize=(10, 4.8))
     ax = fig.subplots()
     for i, (name, v) in enumerate(arrays.items()):

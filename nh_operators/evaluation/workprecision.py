@@ -11,6 +11,7 @@ an interval that is empty when a classical method is at once as fast and as accu
 """
 
 import math
+from typing import Any
 
 __all__ = ["work_precision_rows", "faster_interval", "faster_statements",
            "work_precision_markdown"]
@@ -46,7 +47,8 @@ def work_precision_rows(results, regime="batched"):
     return sorted(rows, key=lambda r: r["seconds"])
 
 
-def faster_interval(row, classical):
+def faster_interval(row: dict[str, Any], classical: list[dict[str, Any]]
+                    ) -> tuple[float | None, float | None, dict[str, Any] | None]:
     """Target accuracies at which ``row`` is faster than every classical method.
 
     Args:
@@ -94,7 +96,8 @@ def faster_statements(rows, regime="batched"):
         head = (f"{row['name']} ({where}, {_us(row['seconds'])} per trajectory, mean "
                 f"L_tot {row['mean_L_tot']:.2e})")
         low, high, blocker = faster_interval(row, classical)
-        if low is None:
+        if low is None or high is None:  # both or neither
+            assert blocker is not None  # an empty interval has a blocker
             out.append(f"{head} is faster than every classical method at no accuracy: "
                        f"{blocker['name']} takes {_us(blocker['seconds'])} and reaches "
                        f"{blocker['mean_L_tot']:.2e}.")
@@ -102,6 +105,7 @@ def faster_statements(rows, regime="batched"):
             out.append(f"{head} is faster than every classical method at every accuracy "
                        f"target ≥ {low:.2e}: no classical method here is as fast.")
         else:
+            assert blocker is not None  # a finite bound is a blocker's accuracy
             out.append(f"{head} is faster than every classical method for targets in "
                        f"[{low:.2e}, {high:.2e}); for targets of {high:.2e} or looser, "
                        f"{blocker['name']} ({_us(blocker['seconds'])}) is both faster and "

@@ -2,14 +2,14 @@
 
 import math
 import warnings
-from typing import Optional
+from typing import Any, Optional
 
 import torch
 from torch import nn
 
 from .._backend import ensure_pytorch_backend
 
-_dde = ensure_pytorch_backend()
+_dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 NN = _dde.nn.pytorch.nn.NN
 
 #: With ``scaled_outputs``, q = Q_MID + Q_HALF · y_q and p = P_MAX · y_p: q spans [0, 1],

@@ -46,6 +46,8 @@ class PositionalEncoding(nn.Module):
     module, so it holds exactly the authors' numbers in any dtype.
     """
 
+    pe: torch.Tensor  # the registered buffer
+
     def __init__(self, d_model, max_len=100):
         super().__init__()
         self.d_model = d_model

@@ -85,8 +85,9 @@ def _scan_forward(u, delta, A2, B, C, h0=None, states=None, decays=None,
     d_state = A2.shape[1]
     du = delta * u
     y = u.new_empty(length, batch, d_inner) if want_y else None
-    scratch = u.new_empty(batch, d_inner, d_state) if decays is None else None
-    slots = u.new_empty(2, batch, d_inner, d_state) if states is None else None
+    # without the caller's buffers: exp(delta_t A) in one reused slice, h in two
+    scratch = u.new_empty(batch, d_inner, d_state) if decays is None else decays[0]
+    slots = u.new_empty(2, batch, d_inner, d_state) if states is None else states
     h_prev = h0
     for t in range(length):
         h = states[t] if states is not None else slots[t % 2]
@@ -98,7 +99,7 @@ def _scan_forward(u, delta, A2, B, C, h0=None, states=None, decays=None,
             torch.exp2(dA, out=dA)
             torch.mul(dA, h_prev, out=h)
             h.addcmul_(du[t].unsqueeze(-1), B[t].unsqueeze(1))
-        if want_y:  # y_t = C_t . h_t, as a row vector times h_t^T (fast batched matmul)
+        if y is not None:  # y_t = C_t . h_t, as a row vector times h_t^T (fast batched matmul)
             torch.bmm(C[t].unsqueeze(1), h.transpose(1, 2), out=y[t].unsqueeze(1))
         if checkpoints is not None and (t + 1) % every == 0:
             slot = (t + 1) // every - 1  # the state after the last step needs no slot
@@ -143,24 +144,26 @@ def _scan_backward(gy, u, delta, A, B, C, checkpoints, every, needs):
         for t in range(stop - 1, start - 1, -1):
             i = t - start
             gh.addcmul_(gy[t].unsqueeze(-1), C[t].unsqueeze(1))
-            if need_C:
+            if gC is not None:
                 torch.bmm(gy[t].unsqueeze(1), states[i], out=gC[t].unsqueeze(1))
             torch.bmm(B[t].unsqueeze(1), gh.transpose(1, 2), out=gdu[t].unsqueeze(1))
-            if need_B:
+            if gB is not None:
                 torch.bmm(du[t].unsqueeze(1), gh, out=gB[t].unsqueeze(1))
             if t == 0:
                 break  # h_{-1} = 0: nothing flows through exp(delta_0 A) nor further back
             gh.mul_(decays[i])
-            if need_delta or need_A:
-                torch.mul(gh, states[i - 1] if i > 0 else h0, out=w)
-                if need_A:
+            if gdelta_A is not None or gA_acc is not None:
+                h_before = states[i - 1] if i > 0 else h0
+                assert h_before is not None  # t > 0 here, so h_{t-1} is a stored state
+                torch.mul(gh, h_before, out=w)
+                if gA_acc is not None:
                     gA_acc.addcmul_(w, delta[t].unsqueeze(-1))
-                if need_delta:  # sum over n as a matrix-vector product: faster than sum
+                if gdelta_A is not None:  # sum over n as a matrix-vector product: faster than sum
                     w.mul_(A)
                     torch.mv(w.view(-1, d_state), ones, out=gdelta_A[t].view(-1))
     gu = gdu * delta if need_u else None
-    gdelta = torch.addcmul(gdelta_A, gdu, u) if need_delta else None
-    gA = gA_acc.sum(0) if need_A else None
+    gdelta = torch.addcmul(gdelta_A, gdu, u) if gdelta_A is not None else None
+    gA = gA_acc.sum(0) if gA_acc is not None else None
     return gu, gdelta, gA, gB, gC
 
 
@@ -173,6 +176,7 @@ class _SelectiveScan(torch.autograd.Function):
         checkpoints = u.new_empty((length - 1) // every, batch, d_inner, A.shape[1])
         y = _scan_forward(u_t, delta_t, A * _LOG2E, B_t, C_t, checkpoints=checkpoints,
                           every=every)
+        assert y is not None  # want_y
         ctx.save_for_backward(u_t, delta_t, A, B_t, C_t)
         ctx.checkpoints, ctx.every = checkpoints, every  # internal, never handed out
         return y.transpose(0, 1)
@@ -222,7 +226,9 @@ def selective_scan(u, delta, A, B, C):
     if torch.is_grad_enabled() and any(t.requires_grad for t in (u, delta, A, B, C)):
         return _SelectiveScan.apply(u, delta, A, B, C)
     u_t, delta_t, B_t, C_t = map(_time_major, (u, delta, B, C))
-    return _scan_forward(u_t, delta_t, A * _LOG2E, B_t, C_t).transpose(0, 1)
+    y = _scan_forward(u_t, delta_t, A * _LOG2E, B_t, C_t)
+    assert y is not None  # want_y
+    return y.transpose(0, 1)
 
 
 def selective_scan_reference(u, delta, A, B, C):

@@ -1,13 +1,13 @@
 """DeepONet: DeepXDE's own ``DeepONetCartesianProd``, configured for (q, p)."""
 
-from typing import Optional
+from typing import Any, Optional
 
 import torch as _torch
 
 from .._backend import ensure_pytorch_backend
 from ._layers import match_default_float, split_inputs
 
-_dde = ensure_pytorch_backend()
+_dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 
 __all__ = ["DeepONet"]
 

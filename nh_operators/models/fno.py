@@ -175,5 +175,6 @@ def _forget_stale_grid(fno: torch.nn.Module, x: torch.Tensor) -> None:
     """
     embedding = getattr(fno, "positional_embedding", None)
     cached = getattr(embedding, "_grid", None)
-    if cached and (cached[0].device != x.device or cached[0].dtype != x.dtype):
+    if embedding is not None and cached and (cached[0].device != x.device
+                                             or cached[0].dtype != x.dtype):
         embedding._grid = None

@@ -1,7 +1,10 @@
 """Batched prediction with a trained network."""
 
+from typing import Any
+
 import numpy as np
 import torch
+from numpy.typing import ArrayLike
 
 from .._constants import TIMES
 from .._sensors import sensor_values
@@ -131,7 +134,8 @@ def interpolate_grid(values: np.ndarray, t: np.ndarray, axis: int = -1) -> np.nd
     return spline(np.clip(t, TIMES[0], TIMES[-1]))
 
 
-def predict(net, V, t, batch_size=1000):
+def predict(net: Any, V: Any, t: ArrayLike, batch_size: int = 1000
+            ) -> tuple[np.ndarray, np.ndarray]:
     """Predict q(t) and p(t) for many potentials, in batches, without a graph.
 
     A network whose answer at one time depends on the other times asked

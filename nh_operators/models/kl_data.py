@@ -6,7 +6,7 @@ from typing import Any
 
 from .._backend import ensure_pytorch_backend
 
-dde = ensure_pytorch_backend()
+dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 
 __all__ = ["KLData"]
 

@@ -9,7 +9,9 @@ when the input is on a GPU in float32/float16/bfloat16 and ``mamba_ssm`` can be 
 fast on a CPU.
 """
 
+import importlib
 import math
+from typing import Any, cast
 
 import torch
 import torch.nn.functional as F
@@ -26,8 +28,10 @@ def _cuda_selective_scan_fn():
     """``mamba_ssm``'s ``selective_scan_fn``, imported on first use; None if unavailable."""
     if "fn" not in _KERNEL:
         try:
-            from mamba_ssm.ops.selective_scan_interface import selective_scan_fn
-        except (ImportError, OSError, RuntimeError):
+            # an optional CUDA package, absent where the types are checked: by name
+            module = importlib.import_module("mamba_ssm.ops.selective_scan_interface")
+            selective_scan_fn = module.selective_scan_fn
+        except (ImportError, AttributeError, OSError, RuntimeError):
             # not installed, or its CUDA extension cannot load (no CUDA, ABI mismatch)
             selective_scan_fn = None
         _KERNEL["fn"] = selective_scan_fn
@@ -103,7 +107,7 @@ class Mamba(nn.Module):
         super().__init__()
         if not 0 < dt_min <= dt_max:
             raise ValueError(f"need 0 < dt_min <= dt_max, got {dt_min}, {dt_max}")
-        factory = {"device": device, "dtype": dtype}
+        factory: dict[str, Any] = {"device": device, "dtype": dtype}
         self.d_model = d_model
         self.d_state = d_state
         self.d_conv = d_conv
@@ -131,9 +135,9 @@ class Mamba(nn.Module):
 
         rows = torch.arange(1, d_state + 1, dtype=torch.float32, device=device)
         self.A_log = nn.Parameter(torch.log(rows).repeat(d_inner, 1))
-        self.A_log._no_weight_decay = True
+        cast(Any, self.A_log)._no_weight_decay = True  # mamba_ssm's optimiser flag
         self.D = nn.Parameter(torch.ones(d_inner, device=device))
-        self.D._no_weight_decay = True
+        cast(Any, self.D)._no_weight_decay = True
 
         self.out_proj = nn.Linear(d_inner, d_model, bias=bias, **factory)
 

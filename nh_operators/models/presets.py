@@ -9,7 +9,24 @@ are our choice (PhaseONet: the same size in both presets, chosen by
 ``cpu``: small enough that one epoch on the standard 8,000 training potentials takes
 at most a minute on a 2-core CPU (measured by ``benchmarks/cost/model_throughput.py``);
 the training values are the paper's.
+
+The ``Literal`` types name the same choices as the tables:
+
+>>> from typing import get_args
+>>> get_args(ModelName) == tuple(ARCHITECTURES["paper"]) and get_args(Preset) == PRESETS
+True
 """
+
+from typing import Literal
+
+#: The names of the networks (``build_model``'s ``name``).
+ModelName = Literal["deeponet", "traonet", "varonet", "mambonet", "fno", "phaseonet"]
+#: The architecture presets (``build_model``'s ``preset``).
+Preset = Literal["paper", "cpu"]
+#: Whose networks: this project's or the authors' (``build_model``'s ``variant``).
+Variant = Literal["ours", "reference"]
+#: The training recipes (``training_defaults``'s ``recipe``).
+RecipeName = Literal["ours", "reference"]
 
 ARCHITECTURES = {
     "paper": {

@@ -5,6 +5,7 @@ networks, under their ``state_dict`` key names.
 """
 
 import math
+from typing import cast
 
 from torch import nn
 
@@ -97,7 +98,7 @@ class _MambaBranch(nn.Module):
 
     def forward(self, V):
         h = self.embedding(V[..., None])
-        for layer in self.mamba.layers:
+        for layer in cast(nn.ModuleList, self.mamba.layers):
             h = layer(h)
         return h
 

@@ -1,6 +1,8 @@
 """The registry of networks: names, presets, construction and dtype casts."""
 
 import inspect
+from collections.abc import Mapping
+from typing import Any, Literal, TypedDict
 
 import torch
 
@@ -10,7 +12,7 @@ from .fno import FNO
 from .mambonet import MambONet
 from .phaseonet import phaseonet
 from .presets import (ARCHITECTURES, PRESETS, REFERENCE_ARCHITECTURES,
-                      REFERENCE_TRAINING, TRAINING)
+                      REFERENCE_TRAINING, TRAINING, ModelName, Preset, RecipeName, Variant)
 from .reference import REFERENCE_MODELS
 from .traonet import TraONet
 from .varonet import VaRONet
@@ -50,7 +52,8 @@ def _check(name, preset, variant="ours"):
     return models[name], architectures[preset][name]
 
 
-def model_config(name, preset="paper", variant="ours", **overrides):
+def model_config(name: ModelName, preset: Preset = "paper", variant: Variant = "ours",
+                 **overrides: Any) -> dict[str, Any]:
     """The constructor arguments ``build_model`` would use.
 
     Raises:
@@ -81,7 +84,8 @@ def _check_phaseonet(overrides: dict) -> None:
             "deeponet, traonet, varonet, mambonet or fno for other operator problems")
 
 
-def build_model(name, preset="paper", variant="ours", **overrides):
+def build_model(name: ModelName, preset: Preset = "paper", variant: Variant = "ours",
+                **overrides: Any):
     """Build a network from the registry.
 
     Args:
@@ -120,14 +124,22 @@ def build_model(name, preset="paper", variant="ours", **overrides):
 
 #: Recipes: "ours" (the paper's TPE optimum, AdamW betas (0.85, 0.98), the schedule
 #: moved every iteration) and "reference" (as the authors' code ran it).
-RECIPES = {
-    "ours": dict(values=TRAINING, betas=(0.85, 0.98), scheduler_step="iteration"),
-    "reference": dict(values=REFERENCE_TRAINING, betas=(0.9, 0.999),
-                      scheduler_step="epoch"),
+class Recipe(TypedDict):
+    """A training recipe: the values by model, AdamW's betas, when the schedule moves."""
+
+    values: Mapping[str, Mapping[str, float]]
+    betas: tuple[float, float]
+    scheduler_step: Literal["iteration", "epoch"]
+
+
+RECIPES: dict[str, Recipe] = {
+    "ours": {"values": TRAINING, "betas": (0.85, 0.98), "scheduler_step": "iteration"},
+    "reference": {"values": REFERENCE_TRAINING, "betas": (0.9, 0.999),
+                  "scheduler_step": "epoch"},
 }
 
 
-def training_defaults(name, recipe="ours"):
+def training_defaults(name: ModelName, recipe: RecipeName = "ours") -> dict[str, Any]:
     """The training values of ``name`` in ``recipe``: lr, upper_bound, infimum_lr (and
     beta for VaRONet), betas and scheduler_step.
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 import torch
@@ -192,7 +193,7 @@ class VaRONet(OperatorNet):
             if copies > 1:
                 h0, c0 = (s.repeat_interleave(copies, dim=1) for s in (h0, c0))
             if by_hand:
-                seq = lstm_by_hand(decoder, steps, h0, c0)
+                seq = lstm_by_hand(cast(nn.LSTM, decoder), steps, h0, c0)
             else:
                 seq, _ = decoder(steps, (h0.contiguous(), c0.contiguous()))
             outs.append(head(seq))

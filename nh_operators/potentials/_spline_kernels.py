@@ -32,7 +32,9 @@ _JIT_FN_ARG: dict[str, Any] = dict(nogil=True, inline="always")
 
 #: The names a kernel template calls (``FORCE(par, x)``...); :func:`specialised` binds
 #: them to compiled functions.
-FN = FORCE = VALUE = None
+FN: Any = None
+FORCE: Any = None
+VALUE: Any = None
 
 
 @numba.njit(**_JIT)
@@ -252,7 +254,8 @@ def specialised(template, functions, **options):
         copy.__qualname__ = ".".join([template.__qualname__, *names, digest.hexdigest()[:12]])
         copy.__module__ = template.__module__
         copy.__doc__ = template.__doc__
-        kernel = numba.njit(**_JIT, **options)(copy)
-        kernel._bound = names
+        compiled: Any = numba.njit(**_JIT, **options)(copy)
+        compiled._bound = names  # read back above when this kernel is bound in turn
+        kernel = compiled
         _SPECIALISED[key] = kernel
     return kernel

@@ -11,6 +11,7 @@ derivative dV/dq is the exact symbolic derivative of the same tree.
 import ast
 import difflib
 import math
+from typing import NoReturn
 
 import numpy as np
 
@@ -58,7 +59,7 @@ _BINARY = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.
 _SYMBOL = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
 
 
-def _fail(text, node, why):
+def _fail(text: str, node: ast.AST, why: str) -> NoReturn:
     col = getattr(node, "col_offset", None)
     where = f" at column {col + 1}" if col is not None else ""
     raise ValueError(f"cannot use {ast.get_source_segment(text, node) or why!r} in a "

@@ -1,5 +1,7 @@
 """The paper's random bounded potentials (its Algorithm 1) as a DeepXDE function space."""
 
+from typing import Any, Literal
+
 import numpy as np
 
 from .._backend import ensure_pytorch_backend
@@ -7,7 +9,7 @@ from .._constants import V0
 from .bounded import BoundedPotential
 from .bspline import MAX_CONTROL
 
-_dde = ensure_pytorch_backend()
+_dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 FunctionSpace = _dde.data.function_spaces.FunctionSpace
 
 __all__ = ["BoundedPotentialSpace", "NORMALIZATIONS"]
@@ -16,6 +18,8 @@ MAX_GRF = MAX_CONTROL - 2
 #: How GRF values become control values: each potential on its own (Algorithm 1 as
 #: printed) or a whole pool of candidates at once (the paper's reference code).
 NORMALIZATIONS = ("potential", "batch")
+#: :data:`NORMALIZATIONS` as a type (``BoundedPotentialSpace``'s ``normalization``).
+Normalization = Literal["potential", "batch"]
 
 
 def _as_generator(seed):
@@ -108,7 +112,8 @@ class BoundedPotentialSpace(FunctionSpace):
     """
 
     def __init__(self, seed=None, *, n_grf=(2, 7), length_scale=(0.01, 0.2), omega=0.05,
-                 margin=0.05, normalization="potential", pool=None):
+                 margin=0.05, normalization: Normalization = "potential",
+                 pool: int | None = None):
         lo, hi = n_grf
         if not 2 <= lo <= hi <= MAX_GRF:
             raise ValueError(f"n_grf must satisfy 2 <= min <= max <= {MAX_GRF}, got {n_grf}")
@@ -183,8 +188,8 @@ class BoundedPotentialSpace(FunctionSpace):
         qs = rng.uniform(low, high)
         return n, ell, x, qs
 
-    def _draw_pool(self):
-        raws = [self._draw_raw() for _ in range(self.pool)]
+    def _draw_pool(self, pool: int):
+        raws = [self._draw_raw() for _ in range(pool)]
         lo = min(r[2].min() for r in raws)
         hi = max(r[2].max() for r in raws)
         # the reference code: V = V0 - 2 V0 (X - min) / (max - min) over the whole pool
@@ -192,10 +197,12 @@ class BoundedPotentialSpace(FunctionSpace):
 
     def _draw_one(self):
         if self.normalization == "batch":
+            pool = self.pool
+            assert pool is not None  # __init__ requires it with "batch"
             if self._candidates is None:
-                self._candidates = self._draw_pool()
+                self._candidates = self._draw_pool(pool)
             while True:
-                if self.cursor >= self.pool:
+                if self.cursor >= pool:
                     raise ValueError(f"the pool of {self.pool} candidates is used up; draw "
                                      "a larger pool (normalization='batch')")
                 n, ell, qs, values = self._candidates[self.cursor]

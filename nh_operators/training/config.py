@@ -1,11 +1,13 @@
 """What defines a training run: :class:`TrainConfig`, its validation, and the device."""
 
 import dataclasses
+from typing import Any, Literal
 
 import torch
 
 from ..data import PhysicsTerms
 from ..models import model_config, training_defaults
+from ..models.presets import ModelName, Preset, RecipeName, Variant
 from .losses import LOSSES
 from .schedulers import ExpHyperbolicLR, HyperbolicLR
 
@@ -14,6 +16,8 @@ __all__ = ["TrainConfig", "TrainingDiverged", "resolve_device"]
 #: Learning-rate schedules by name (``TrainConfig.scheduler``); ``None``: a constant lr.
 SCHEDULERS = {"exphyperbolic": ExpHyperbolicLR, "hyperbolic": HyperbolicLR,
               "constant": None}
+#: The names of :data:`SCHEDULERS`.
+SchedulerName = Literal["exphyperbolic", "hyperbolic", "constant"]
 
 
 class TrainingDiverged(RuntimeError):
@@ -65,31 +69,31 @@ class TrainConfig:
             wherever ``load_model`` rebuilds it. Validation still scores against labels.
     """
 
-    model: str
-    preset: str = "cpu"
-    variant: str = "ours"
-    recipe: str = "ours"
-    arch: dict = dataclasses.field(default_factory=dict)
+    model: ModelName
+    preset: Preset = "cpu"
+    variant: Variant = "ours"
+    recipe: RecipeName = "ours"
+    arch: dict[str, Any] = dataclasses.field(default_factory=dict)
     epochs: int = 10
     seed: int = 0
     batch_size: int = 100
-    lr: float = None
-    upper_bound: float = None
-    infimum_lr: float = None
-    beta: float = None
-    scheduler: str = "exphyperbolic"
+    lr: float | None = None
+    upper_bound: float | None = None
+    infimum_lr: float | None = None
+    beta: float | None = None
+    scheduler: SchedulerName = "exphyperbolic"
     weight_decay: float = 0.01
-    betas: tuple = None
-    scheduler_step: str = None
-    dtype: str = "float32"
+    betas: tuple[float, float] | None = None
+    scheduler_step: Literal["iteration", "epoch"] | None = None
+    dtype: Literal["float32", "float64"] = "float32"
     device: str = "auto"
     amp: bool = False
     train_fraction: float = 0.8
-    loss: str = "mse"
+    loss: Literal["mse", "logcosh"] = "mse"
     ema: float = 0.0
-    physics: dict | None = None
+    physics: dict[str, Any] | None = None
 
-    def resolved(self):
+    def resolved(self) -> dict[str, Any]:
         """A plain dict with every default filled in, validated.
 
         Raises:
@@ -136,7 +140,7 @@ class TrainConfig:
         return cfg
 
 
-def resolve_device(device="auto"):
+def resolve_device(device: str | torch.device = "auto") -> torch.device:
     """``torch.device`` for "auto" (CUDA when available, else CPU) or a device name.
 
     Raises:

@@ -27,6 +27,7 @@ import signal
 import socket
 import threading
 import time
+from typing import Any
 
 import numpy as np
 import torch
@@ -154,7 +155,8 @@ class Distributed:
         sync = ("forward_sync_buffers" if "forward_sync_buffers" in
                 inspect.signature(DistributedDataParallel.__init__).parameters
                 else "broadcast_buffers")
-        return _Wrapped(net, device_ids=ids, **{sync: False})
+        options: dict[str, Any] = {sync: False}
+        return _Wrapped(net, device_ids=ids, **options)
 
     def maybe_fail(self, epoch):
         """Fault injection (``NH_OPERATORS_FAIL_RANK_AFTER_EPOCH=RANK:EPOCH``)."""

@@ -13,15 +13,17 @@ import contextlib
 import logging
 import math
 import time
+from typing import Any
 
 import numpy as np
 import torch
 
 from .._backend import ensure_pytorch_backend
 from .._version import __version__
+from .averaging import WeightAverage
 from .checkpoint import save_checkpoint, write_history
 
-dde = ensure_pytorch_backend()
+dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 log = logging.getLogger(__name__)
 
 __all__ = []
@@ -85,9 +87,9 @@ class _Run:
         self.epoch_callback = epoch_callback
         self.t0 = time.perf_counter()
         self.elapsed0 = 0.0
-        self.max_seconds = None
+        self.max_seconds: float | None = None
         self.bar = None
-        self.average = None  # a WeightAverage when cfg["ema"]
+        self.average: WeightAverage | None = None  # one when cfg["ema"]
         if progress and dist.is_main:
             from tqdm.auto import tqdm
 
@@ -142,12 +144,13 @@ class _Run:
         if self.epoch_callback is not None:
             with self.scored() as net:
                 self.epoch_callback(dict(record), net)
-        if self.over_budget() and self.epoch < self.cfg["epochs"]:
+        budget = self.max_seconds
+        if budget is not None and self.over_budget() and self.epoch < self.cfg["epochs"]:
             if self.dist.is_main:
                 log.warning("stopping after epoch %d of %d: the run has used %.1f min of "
                             "its %.1f-minute budget (--resume with a larger one "
                             "continues)", self.epoch, self.cfg["epochs"],
-                            record["seconds"] / 60, self.max_seconds / 60)
+                            record["seconds"] / 60, budget / 60)
             self.model.stop_training = True
 
     def over_budget(self):

@@ -24,6 +24,7 @@ Add ``per_epoch=True`` to step per iteration but move the rate only at epoch end
 
 import math
 
+import torch
 from torch.optim.lr_scheduler import LRScheduler
 
 __all__ = ["HyperbolicLR", "ExpHyperbolicLR", "adjusted_infimum_lr"]
@@ -60,6 +61,10 @@ class _Hyperbolic(LRScheduler):
         n, u = self.max_iter, self.upper_bound
         x = min(x, n)  # held at the end value after max_iter epochs
         return math.sqrt(max((n - x) / u * (2.0 - (n + x) / u), 0.0))
+
+    def _rate(self, lr0: float | torch.Tensor, dh: float) -> float | torch.Tensor:
+        """The rate at h(x) − h(0) = dh from the initial rate lr0 (each schedule's own)."""
+        raise NotImplementedError
 
     def epoch_position(self):
         """Fractional epoch x of the current step; with ``per_epoch`` the whole epochs

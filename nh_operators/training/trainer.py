@@ -9,7 +9,10 @@ batched validation pass, a progress-bar update, a history row and an atomic chec
 """
 
 import logging
+import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import torch
@@ -19,19 +22,25 @@ from ..data import PhysicsTerms, ShardedOperatorData, check_global_batch, open_r
 from ..models import count_parameters
 from .averaging import WeightAverage
 from .checkpoint import CHECKPOINT, load_checkpoint, network_from_config, write_config
-from .config import SCHEDULERS, TrainingDiverged
+from .config import SCHEDULERS, TrainConfig, TrainingDiverged
 from .distributed import init_distributed
 from .epochs import _EpochEnd, _Run
 from .losses import LOSSES
 
-dde = ensure_pytorch_backend()
+if TYPE_CHECKING:  # only for the annotation: imported, it would load the generator
+    from ..data import Dataset
+
+dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 log = logging.getLogger(__name__)
 
 __all__ = ["train"]
 
 
-def train(config, data, out, *, resume=False, progress=True, epoch_callback=None,
-          max_minutes=None, stop_after=None, max_rows=None):
+def train(config: TrainConfig, data: "str | os.PathLike[str] | Dataset",
+          out: str | os.PathLike[str], *, resume: bool = False, progress: bool = True,
+          epoch_callback: Callable[[dict[str, Any], torch.nn.Module], object] | None = None,
+          max_minutes: float | None = None, stop_after: int | None = None,
+          max_rows: int | None = None):
     """Train a network through ``dde.Model`` and write a run directory.
 
     Under ``torchrun`` (see :doc:`/training_at_scale`) every process calls this with the
@@ -169,7 +178,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
             if run.bar is not None:
                 run.bar.close()
             if hasattr(net, "noise"):
-                net.noise = None
+                cast(Any, net).noise = None  # VaRONet draws its own noise again
     if run.average is not None:  # the averaged weights are the result
         net.load_state_dict(run.average.shadow)
     if run.diverged is not None:

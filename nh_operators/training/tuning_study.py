@@ -10,6 +10,7 @@ import json
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 from .._extras import require
 from .._version import __version__
@@ -64,7 +65,8 @@ def open_storage(url=DEFAULT_STORAGE):
     import sqlalchemy.exc
 
     storages = optuna.storages
-    kwargs = {"heartbeat_interval": _HEARTBEAT, "grace_period": 4 * _HEARTBEAT}
+    kwargs: dict[str, Any] = {"heartbeat_interval": _HEARTBEAT,
+                              "grace_period": 4 * _HEARTBEAT}
     if str(url).startswith("sqlite"):
         kwargs["engine_kwargs"] = {"connect_args": {"timeout": 60}}
     with warnings.catch_warnings():
