@@ -23,7 +23,14 @@ How ``method="auto"`` chooses, for a tolerance ``tol`` on L_tot:
    returned; otherwise the classical solver runs, and the record lists both attempts.
 
 The classical solver (:func:`~nh_operators.solve_classical`) doubles RK4 substeps until
-its own estimate is met; it computes exactly the requested times.
+its own estimate is met, up to :data:`~nh_operators.solving.answers.MAX_SUBSTEPS`; it
+computes exactly the requested times.
+
+What an answer promises (:mod:`~nh_operators.solving.answers`): ``converged=True`` means
+its estimate met tol, measured against ``truth`` — for certain on the classical path,
+at the calibrated quantile (0.999) for a network. A tol the classical solver cannot
+reach returns its finest answer with ``converged=False``, the reason in words, and a
+``RuntimeWarning``; it never raises for that.
 """
 
 from __future__ import annotations
@@ -37,6 +44,8 @@ import numpy as np
 
 from .._constants import TIMES
 from ..solvers import adaptive_solve, coerce_potential
+from .answers import MAX_SUBSTEPS, Candidate, Truth, Verdict, candidates, truth_of
+from .costs import horizon_key
 from .kinds import InputKind
 from .loader import load
 from .network_pass import neural_solve, sensor_values
@@ -53,11 +62,21 @@ class Solution:
         q, p: float64 arrays (M,) at the requested times, in their order.
         method: the method that produced them (``"rk4"``, ``"deeponet"``, ...).
         kind: ``"classical"`` or ``"neural"``.
-        error_estimate: estimated L_tot of (q, p) against the true trajectory.
+        error_estimate: estimated L_tot of (q, p) against ``truth``.
+        converged: whether ``error_estimate`` ≤ tol (:data:`DEFAULT_TOL` when ``tol`` is
+            None). False comes with a ``reason`` that says so and, where a tol was
+            given or the classical solver ran, a ``RuntimeWarning`` (classical) or
+            ``UserWarning`` (a forced network).
+        truth: what the estimate is measured against: ``truth.reference`` is the exact
+            potential or the sensor spline (for sensor values: the spline through them,
+            not any potential they were sampled from); ``truth.confidence`` is 1.0 on the
+            classical path and a network's calibrated quantile (0.999) otherwise.
         seconds: wall time of the whole call.
         tol: the tolerance asked for (``None`` if none).
-        reason: why this method was used, in words.
+        reason: why this method was used, one short sentence.
         tried: one dict per method run (method, error_estimate, seconds, accepted).
+        candidates: with ``method="auto"`` and a tol, every shipped network weighed,
+            with its verdict, share and costs (:class:`~.answers.Candidate`); else ().
     """
 
     q: np.ndarray
@@ -65,10 +84,13 @@ class Solution:
     method: str
     kind: str
     error_estimate: float
+    converged: bool
+    truth: Truth
     seconds: float
     tol: float | None = None
     reason: str = ""
     tried: list[dict[str, Any]] = field(default_factory=list)
+    candidates: tuple[Candidate, ...] = ()
 
 
 def solve(potential: Any, t: Any, *, tol: float | None = None, method: Any = "auto",
@@ -86,7 +108,8 @@ def solve(potential: Any, t: Any, *, tol: float | None = None, method: Any = "au
         potential: a name of :data:`~nh_operators.PHYSICAL_POTENTIALS`, a text
             expression in q, a callable V(q) (with ``dV``), an object with ``V`` and
             ``dV``, a :class:`~nh_operators.BoundedPotential`, or the 100 sensor values.
-        t: query times, shape (M,), ≥ 0 (≤ 2 for a network).
+        t: query times, shape (M,) (or a scalar), ≥ 0 (≤ 2 for a network); 2-D times
+            are refused (several rows of times: :func:`~nh_operators.solve_many`).
         tol: target L_tot (> 0); ``None``: no target (``auto`` then solves classically
             at :data:`DEFAULT_TOL`).
         method: ``"auto"`` (see the module docstring), ``"classical"`` (RK4), an
@@ -99,17 +122,26 @@ def solve(potential: Any, t: Any, *, tol: float | None = None, method: Any = "au
             p0²/2 + V(q0) must be ≤ V0 and q0 in [0, 1].
 
     Returns:
-        :class:`Solution`.
+        :class:`Solution`. The promise: with ``converged=True`` the estimate is ≤ tol
+        against ``truth`` — certain on the classical path (``truth.confidence`` 1.0); a
+        network's estimate bounds its calibrated quantile (0.999) of the true error, so
+        about 1 in 1,000 accepted network answers may exceed tol. For sensor values
+        the truth is the sensors' spline (``truth.reference`` ``"sensor spline"``), which
+        can be far from a potential they were sampled from. A tol the classical solver
+        cannot reach within :data:`~nh_operators.solving.answers.MAX_SUBSTEPS` (a kink,
+        as MFF's, at tol 1e-12) returns its finest answer with ``converged=False``.
 
     Raises:
-        ValueError: a bad potential, times, tolerance, state or method name, times
-            outside [0, 2] for a network, a state other than (0, 0) for a network that
-            does not read one, or a time beyond what float64 resolves.
+        ValueError: a bad potential, times (2-D ones included), tolerance, state or
+            method name, times outside [0, 2] for a network, a state other than (0, 0)
+            for a network that does not read one, or a time beyond what float64
+            resolves.
         PeriodError: a far horizon on an orbit whose period cannot be found (a
             separatrix).
 
     Warns:
-        UserWarning: a forced network whose estimate exceeds ``tol``.
+        RuntimeWarning: tol not reached by the classical solver (``converged=False``).
+        UserWarning: a forced network whose estimate exceeds ``tol`` (``converged=False``).
         OutOfDomainWarning: a forced network on an input outside its domain.
 
     Thread safety: the answer is, the thread counts are not. The call sets torch's and
@@ -120,8 +152,8 @@ def solve(potential: Any, t: Any, *, tol: float | None = None, method: Any = "au
 
     Example:
         >>> sol = solve("sho", [0.5, 1.0], tol=1e-6)
-        >>> sol.kind, bool(sol.error_estimate <= 1e-6), round(float(sol.q[1]), 4)
-        ('classical', True, 0.8268)
+        >>> sol.kind, sol.converged, str(sol.truth), round(float(sol.q[1]), 4)
+        ('classical', True, 'exact potential', 0.8268)
     """
     from .._backend import single_threaded
 
@@ -135,13 +167,25 @@ def _rest_at_zero(q0, p0):
     return np.ndim(q0) == 0 and np.ndim(p0) == 0 and float(q0) == 0.0 and float(p0) == 0.0
 
 
+def _times(t: Any) -> np.ndarray:
+    """The asked times as (M,) float64, or a clear error (2-D times are refused)."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim > 1:
+        raise ValueError(f"t must be one-dimensional, shape (M,); got shape {t.shape} (for "
+                         "several rows of times use nh.solve_many)")
+    t = t.reshape(-1)
+    if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
+        raise ValueError("t must be a non-empty array of finite times ≥ 0")
+    return t
+
+
 def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
     method, networks = check_method(method, tol)
     pot, information = coerce_potential(potential, dV)
-    t = np.asarray(t, dtype=np.float64).reshape(-1)
-    if t.size == 0 or not np.all(np.isfinite(t)) or t.min() < 0:
-        raise ValueError("t must be a non-empty array of finite times ≥ 0")
+    t = _times(t)
     tried = []
+    kind = InputKind.of(pot, information)
+    weighed: tuple[Candidate, ...] = ()
 
     rest = _rest_at_zero(q0, p0)
     if method in networks:
@@ -151,31 +195,56 @@ def _solve(potential, t, tol, method, dV, start, q0=0.0, p0=0.0):
                              f"that reads a state ({_state_networks() or 'none shipped'})")
         return _forced_network(method, pot, information, t, tol, start, q0, p0)
     if method == "auto" and tol is not None:
-        name, reason = choose(tol, lambda: sensor_values(pot, information), t,
-                              InputKind.of(pot, information), states=not rest)
+        name, reason = choose(tol, lambda: sensor_values(pot, information), t, kind,
+                              states=not rest)
+        accepted = None
         if name is not None:
             t0 = time.perf_counter()
             q, p, estimate = neural_solve(name, pot, information, t, q0, p0)
-            accepted = estimate <= tol
+            accepted = bool(estimate <= tol)
             tried.append({"method": name, "error_estimate": estimate, "accepted": accepted,
                           "seconds": time.perf_counter() - t0})
-            if accepted:
-                return Solution(q, p, name, "neural", estimate, time.perf_counter() - start,
-                                tol, reason, tried)
-            reason = f"{name}'s estimate {estimate:.2g} > tol {tol:g}; classical instead"
+        weighed = candidates(tol, kind, not rest, horizon_key(t), t, name, accepted)
+        if name is not None and accepted:
+            return Solution(q, p, name, "neural", estimate, True, truth_of(kind, name),
+                            time.perf_counter() - start, tol,
+                            f"{name} was expected cheapest and its estimate met tol",
+                            tried, weighed)
+        reason = _classical_reason(name, reason, weighed, tried, tol)
     elif method == "auto":
         reason = f"no tol: the classical solver at {DEFAULT_TOL:g}"
     else:
         reason = "forced"
     integrator = CLASSICAL.get(method, "rk4")
+    target = DEFAULT_TOL if tol is None else tol
     t0 = time.perf_counter()
-    sol = adaptive_solve(pot, information, t, DEFAULT_TOL if tol is None else tol, integrator,
+    sol = adaptive_solve(pot, information, t, target, integrator, MAX_SUBSTEPS,
                          q0=q0, p0=p0)
+    converged = bool(sol.error_estimate <= target)
     tried.append({"method": integrator, "error_estimate": sol.error_estimate,
                   "accepted": True, "seconds": time.perf_counter() - t0,
                   "substeps": sol.substeps, "period": sol.period})
-    return Solution(sol.q, sol.p, integrator, "classical", sol.error_estimate,
-                    time.perf_counter() - start, tol, reason, tried)
+    if not converged:
+        reason = (f"{reason}; not converged: the classical estimate {sol.error_estimate:.2g} "
+                  f"missed tol {target:g} at {sol.substeps} substeps")
+    return Solution(sol.q, sol.p, integrator, "classical", sol.error_estimate, converged,
+                    truth_of(kind), time.perf_counter() - start, tol, reason, tried, weighed)
+
+
+def _classical_reason(name: str | None, reason: str, weighed: tuple[Candidate, ...],
+                      tried: list[dict[str, Any]], tol: float) -> str:
+    """Why ``auto`` with a tol solved classically, in one short clause (the details are
+    in ``weighed``)."""
+    if name is not None:
+        return (f"{name}'s estimate {tried[0]['error_estimate']:.2g} > tol {tol:g}: "
+                "the classical solver instead")
+    verdicts = {c.verdict for c in weighed}
+    if Verdict.OUTSIDE_TIMES in verdicts:
+        return "times outside [0, 2], where the networks were trained: the classical solver"
+    if Verdict.OUTSIDE_DOMAIN in verdicts:
+        return ("input outside the domain of every network expected to be cheaper: "
+                "the classical solver")
+    return reason.split(" (", 1)[0] + ": the classical solver (see candidates)"
 
 
 def _state_networks() -> list[str]:
@@ -192,11 +261,15 @@ def _forced_network(name, pot, information, t, tol, start, q0=0.0, p0=0.0):
     for message in domain_violations(sensor_values(pot, information), load(name).domain):
         warnings.warn(f"{name}: {message}", OutOfDomainWarning, stacklevel=4)
     q, p, estimate = neural_solve(name, pot, information, t, q0, p0)
-    if tol is not None and estimate > tol:
+    converged = bool(estimate <= (DEFAULT_TOL if tol is None else tol))
+    reason = "forced"
+    if tol is not None and not converged:
         warnings.warn(f"{name}'s error estimate {estimate:.2g} exceeds tol {tol:g}; use "
                       "method='auto' to fall back to the classical solver", UserWarning,
                       stacklevel=4)
+        reason = f"forced; not converged: its estimate {estimate:.2g} > tol {tol:g}"
     seconds = time.perf_counter() - start
-    return Solution(q, p, name, "neural", estimate, seconds, tol, "forced",
+    return Solution(q, p, name, "neural", estimate, converged,
+                    truth_of(InputKind.of(pot, information), name), seconds, tol, reason,
                     [{"method": name, "error_estimate": estimate, "accepted": True,
                       "seconds": seconds}])

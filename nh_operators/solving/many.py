@@ -14,13 +14,15 @@ row is solved classically — all classical rows together, in one parallel numba
 per substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a
 progress bar when N is large. A classical row gives the same numbers as :func:`solve` on
 that row.
+
+Each row says what it is, ``converged`` and ``truth`` (:mod:`~nh_operators.solving.answers`).
 """
 
 from __future__ import annotations
 
 import functools
-import re
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,46 +34,16 @@ from ..potentials import BoundedPotential, check_bounded, domain_stats, in_domai
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import check_times
 from ..solvers.states import check_states, state_arrays
+from .answers import MAX_SUBSTEPS, row_truths
 from .auto_solve import solve
 from .costs import horizon_key
 from .kinds import InputKind
 from .loader import load
 from .network_pass import Answers, NetworkRuns, pilot_order, record
 from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
+from .row_errors import RowError, named_row, row_error
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "RowError", "solve_many"]
-
-class RowError(ValueError):
-    """A bad row of a :func:`solve_many` call: ``row`` is its index in the call, and the
-    message starts with ``"row {row}: "``.
-
-    Example:
-        >>> err = RowError(3, "its energy exceeds V0")
-        >>> err.row, str(err)
-        (3, 'row 3: its energy exceeds V0')
-    """
-
-    def __init__(self, row: int, message: str) -> None:
-        super().__init__(f"row {row}: {message}")
-        self.row = row
-
-
-def _row_error(err: ValueError, row: int, message: str) -> ValueError:
-    """``err`` about row ``row`` of the call: a :class:`RowError`, or for a subclass of
-    ValueError (``PeriodError``) the same class with the row named."""
-    if type(err) is ValueError:
-        return RowError(row, message)
-    return type(err)(f"row {row}: {message}")
-
-
-def _named_row(err: ValueError, rows: np.ndarray) -> ValueError:
-    """A solver's error about "row k" of the rows ``rows`` it was given, about row
-    ``rows[k]`` of the call (a :class:`RowError`); ``err`` itself if it names no row."""
-    found = re.match(r"row (\d+): (.*)", str(err), re.DOTALL)
-    if found is None:
-        return err
-    return _row_error(err, int(rows[int(found.group(1))]), found.group(2))
-
 
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192
@@ -101,12 +73,20 @@ class ManySolution:
         substeps: (N,) int, the substeps of a classical row's solution (0 for neural).
         period: (N,) T where a classical row's times were answered from one period,
             else nan.
+        converged: (N,) bool, rows whose estimate met tol (:data:`DEFAULT_TOL` when
+            ``tol`` is None).
+        truth: (N,) object array of :class:`~.answers.Truth`, what each row's estimate
+            is measured against: the exact potential or the sensors' spline (for sensor
+            values: the spline through them, not a potential they were sampled from),
+            with confidence 1.0 for classical rows and a network's calibrated quantile
+            (0.999) for neural ones.
         seconds: wall time of the whole call.
         tol: the tolerance asked for.
         tried: networks tried, with how many rows each was offered and accepted (and
             ``stopped``, why, where a pilot showed it was not worth its cost).
         records: one dict per row (built when first read): ``method``, ``kind``
-            (``"classical"`` or ``"neural"``), ``error_estimate``, and for classical
+            (``"classical"`` or ``"neural"``), ``error_estimate``, ``converged``,
+            ``truth``, and for classical
             rows ``substeps`` and ``period`` (None where unused).
     """
 
@@ -117,8 +97,10 @@ class ManySolution:
     neural: np.ndarray
     substeps: np.ndarray
     period: np.ndarray
+    converged: np.ndarray
+    truth: np.ndarray
     seconds: float
-    tol: float = None
+    tol: float | None = None
     tried: list = field(default_factory=list)
 
     @functools.cached_property
@@ -126,6 +108,7 @@ class ManySolution:
         return [{"method": str(self.methods[i]),
                  "kind": "neural" if self.neural[i] else "classical",
                  "error_estimate": float(self.error_estimate[i]),
+                 "converged": bool(self.converged[i]), "truth": self.truth[i],
                  **({} if self.neural[i] else {
                      "substeps": int(self.substeps[i]),
                      "period": None if np.isnan(self.period[i]) else float(self.period[i])})}
@@ -158,12 +141,19 @@ def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progre
         progress: show a progress bar (``None``: when N ≥ 20,000).
 
     Returns:
-        :class:`ManySolution`.
+        :class:`ManySolution`. Per row, :func:`~nh_operators.solve`'s promise: where
+        ``converged``, the estimate is ≤ tol against ``truth`` (for sensor values the
+        sensors' spline), certain on a classical row, at the calibrated quantile (0.999)
+        on a neural one; a row tol cannot be reached on keeps its finest answer.
 
     Raises:
         ValueError: bad shapes, states, times, tolerance or method; a forced network
             on a state other than (0, 0).
         PeriodError: a row whose far horizon has no usable period (a separatrix).
+
+    Warns:
+        RuntimeWarning: rows whose tol the classical solver did not reach.
+        UserWarning: a forced network's rows whose estimate exceeds ``tol``.
 
     Thread safety: below :data:`THREADS_FROM` rows the call sets torch's and numba's
     process-wide thread counts to 1 and restores them on return, as
@@ -174,8 +164,8 @@ def solve_many(potentials, t, *, q0=0.0, p0=0.0, tol=None, method="auto", progre
         >>> import numpy as np
         >>> V = np.stack([8 * (SENSORS - 0.5) ** 2, 2 - 7.5 * SENSORS * (1 - SENSORS)])
         >>> sol = solve_many(V, [0.5, 1e6], q0=[0.0, 0.5], p0=[0.0, 1.0], tol=1e-8)
-        >>> sol.q.shape, sol.methods.tolist(), bool(sol.error_estimate.max() <= 1e-8)
-        ((2, 2), ['rk4', 'rk4'], True)
+        >>> sol.q.shape, sol.methods.tolist(), sol.converged.tolist(), str(sol.truth[0])
+        ((2, 2), ['rk4', 'rk4'], [True, True], 'sensor spline')
     """
     start = time.perf_counter()
     rows = len(potentials) if isinstance(potentials, (list, tuple, BoundedPotential)) \
@@ -228,9 +218,16 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
     substeps, period = _classical_pass(call, np.flatnonzero(~answers.neural),
                                        CLASSICAL.get(method, "rk4"), target, answers,
                                        progress)
+    converged = answers.estimate <= target
+    if method in networks and tol is not None and not converged.all():
+        bad = np.flatnonzero(~converged)
+        warnings.warn(f"{method}'s error estimate exceeds tol {tol:g} on {bad.size} rows "
+                      f"(row {bad[0]}: {answers.estimate[bad[0]]:.2g}); use method='auto' "
+                      "to fall back to the classical solver", UserWarning, stacklevel=4)
     return ManySolution(answers.q, answers.p, answers.methods.astype(str), answers.estimate,
-                        answers.neural, substeps, period, time.perf_counter() - start, tol,
-                        tried)
+                        answers.neural, substeps, period, converged,
+                        row_truths(call.kind, answers.methods, answers.neural),
+                        time.perf_counter() - start, tol, tried)
 
 
 def _checked_call(potentials, t, q0, p0) -> _Call:
@@ -257,7 +254,7 @@ def _checked_call(potentials, t, q0, p0) -> _Call:
     try:
         check_states(q0s, p0s, src.values_at, batched=True)
     except ValueError as err:
-        raise _named_row(err, np.arange(n)) from None
+        raise named_row(err, np.arange(n)) from None
     return _Call(potentials, src, V, kind, t, q0s, p0s)
 
 
@@ -351,9 +348,9 @@ def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target:
         try:
             out = solve_rows(sub, t[rows] if t.ndim == 2 else t, call.q0s[rows],
                              call.p0s[rows], np.full(rows.size, target), integrator,
-                             batched=True)
+                             MAX_SUBSTEPS, batched=True)
         except ValueError as err:  # name the row of the whole call, not of the chunk
-            raise _named_row(err, rows) from None
+            raise named_row(err, rows) from None
         answers.q[rows], answers.p[rows] = out["q"], out["p"]
         answers.estimate[rows], substeps[rows], period[rows] = (
             out["estimate"], out["substeps"], out["period"])
@@ -378,12 +375,15 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
             sols.append(solve(pot, rows_t[i], tol=tol, method=method, q0=float(q0s[i]),
                               p0=float(p0s[i])))
         except ValueError as err:
-            raise _row_error(err, i, str(err)) from None
+            raise row_error(err, i, str(err)) from None
     neural = np.array([s.kind == "neural" for s in sols], dtype=bool)
     last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural)]  # a classical solve
     substeps = np.array([r.get("substeps") or 0 for r in last], dtype=np.int64)
     period = np.array([r.get("period") or np.nan for r in last], dtype=np.float64)
+    truth = np.empty(n, dtype=object)
+    truth[:] = [s.truth for s in sols]
     return ManySolution(np.stack([s.q for s in sols]), np.stack([s.p for s in sols]),
                         np.array([s.method for s in sols]),
                         np.array([s.error_estimate for s in sols]), neural, substeps,
-                        period, time.perf_counter() - start, tol)
+                        period, np.array([s.converged for s in sols], dtype=bool), truth,
+                        time.perf_counter() - start, tol)
