@@ -4,6 +4,7 @@ import contextlib
 import io
 import os
 import sys
+import threading
 
 
 def select_pytorch_backend():
@@ -67,6 +68,9 @@ def ensure_pytorch_backend():
     return deepxde
 
 
+_LOCAL = threading.local()  # this thread's single_threaded blocks: depth, torch limited
+
+
 @contextlib.contextmanager
 def single_threaded():
     """Run torch and numba on one thread inside the block (restored afterwards).
@@ -76,21 +80,45 @@ def single_threaded():
     0.5 ms (numba) and 80 ms instead of 2.4 ms (torch) on this 2-core machine while a
     training run was going.
 
-    Not thread-safe: the counts are process-wide, so torch and numba work of other
-    threads also runs on one thread inside the block, and two blocks that overlap in
-    different threads restore the counts in the order they end (the first to end puts
-    back what it saw, possibly 1, until the other ends).
+    The counts are chosen once per call path: a block inside another block of the same
+    thread costs nothing (it only limits torch if torch was imported since the outer
+    block began), and a count already at 1 is not set again.
+
+    Not thread-safe for torch: numba's count is per thread, torch's process-wide, so
+    torch work of other threads also runs on one thread inside the block, and two blocks
+    that overlap in different threads restore torch's count in the order they end (the
+    first to end puts back what it saw, possibly 1, until the other ends).
+
+    Example:
+        >>> import numba
+        >>> with single_threaded():
+        ...     with single_threaded():
+        ...         inner = numba.get_num_threads()
+        >>> inner
+        1
     """
     import numba
 
-    torch = sys.modules.get("torch")  # not imported: nothing of torch's runs in the block
-    n_torch, n_numba = (torch.get_num_threads() if torch else None), numba.get_num_threads()
-    if torch:
+    depth = getattr(_LOCAL, "depth", 0)
+    outer = depth == 0
+    n_numba = numba.get_num_threads() if outer else 1
+    if n_numba != 1:
+        numba.set_num_threads(1)
+    # torch not imported: nothing of torch's runs in the block (until a nested block)
+    torch = None if getattr(_LOCAL, "torch", False) else sys.modules.get("torch")
+    n_torch = torch.get_num_threads() if torch is not None else 1
+    if n_torch != 1:
         torch.set_num_threads(1)
-    numba.set_num_threads(1)
+    if torch is not None:
+        _LOCAL.torch = True
+    _LOCAL.depth = depth + 1
     try:
         yield
     finally:
-        if torch:
-            torch.set_num_threads(n_torch)
-        numba.set_num_threads(n_numba)
+        _LOCAL.depth = depth
+        if torch is not None:
+            _LOCAL.torch = False
+            if n_torch != 1:
+                torch.set_num_threads(n_torch)
+        if n_numba != 1:
+            numba.set_num_threads(n_numba)

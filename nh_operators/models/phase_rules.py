@@ -16,13 +16,14 @@ round it, and the ``state_dict`` does not hold it.
 
 import math
 
+import numba
 import numpy as np
 import torch
 
 from .._constants import V0
 from .._sensors import spline_matrix
 from .float64_buffers import Float64Buffers
-from .orbit_coordinates import SensorSpline, composite_rule, invert_rows, orbit
+from .orbit_coordinates import SensorSpline, composite_rule, invert_row, invert_rows, orbit
 from .orbit_shape import edge_tables, shape_table
 
 __all__ = ["OrbitQuadrature", "RestQuadrature", "gauss_legendre", "period_quadrature"]
@@ -70,6 +71,32 @@ def period_quadrature(n_sensors: int = 100, nodes: int = 64) -> tuple[np.ndarray
     """
     _, w, jacobian, S = _rest_rule(n_sensors, nodes)
     return S, jacobian * w
+
+
+
+#: Rows from which :func:`invert_rows_parallel` runs on numba's threads (fewer: one thread,
+#: no launch cost).
+PARALLEL_FROM = 32
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def invert_rows_parallel(f, s, w, T, ends, cos_e, sin_e, gaps, grid):
+    """:func:`~.orbit_coordinates.invert_rows` with the rows shared among numba's threads:
+    each row is the same :func:`~.orbit_coordinates.invert_row`, so bit for bit the same.
+
+    Args:
+        f: (B, K) speeds' inverses at the nodes; s, w: (K,) the nodes and weights;
+        T: (B,) periods; ends, cos_e, sin_e, gaps: :func:`~.orbit_shape.edge_tables`;
+        grid: nodes of the half-phase.
+
+    Returns:
+        (Q, P), each (B, grid) float64.
+    """
+    rows = f.shape[0]
+    Q, P = np.empty((rows, grid)), np.empty((rows, grid))
+    for r in numba.prange(rows):
+        invert_row(f[r], s, w, T[r], ends, cos_e, sin_e, gaps, Q[r], P[r])
+    return Q, P
 
 
 class RestQuadrature(Float64Buffers):
@@ -136,7 +163,9 @@ class RestQuadrature(Float64Buffers):
         T = 2 * (f @ w)
         if V.device.type == "cpu" and not (torch.is_grad_enabled() and V.requires_grad):
             ends, cos_e, sin_e, gaps = edge_tables(s.numpy(), w.numpy())
-            Q, P = (torch.from_numpy(a) for a in invert_rows(
+            invert = invert_rows_parallel if (V.shape[0] >= PARALLEL_FROM and
+                                              numba.get_num_threads() > 1) else invert_rows
+            Q, P = (torch.from_numpy(a) for a in invert(
                 f.numpy(), s.numpy(), w.numpy(), T.numpy(), ends, cos_e, sin_e, gaps, grid))
         else:
             Q, P = shape_table(f, s, w, T, grid)

@@ -8,6 +8,7 @@ exceeds :data:`~nh_operators.solvers.periodic.PERIODIC_FROM` are answered from o
 period (:mod:`.periodic`).
 """
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -135,13 +136,24 @@ def _grids(ts, substeps, interval):
     return hs, nsteps
 
 
+def _one_grid(ts, substeps, interval):
+    """:func:`_grids` of one row of sorted times ``ts`` (M,), in Python floats: the same
+    IEEE arithmetic, without a dozen array operations per level of a single solve."""
+    t_max = float(ts[-1])
+    steps = t_max * substeps / interval - 1e-9
+    if steps > MAX_STEPS:
+        _grids(ts[None], substeps, np.array([interval]))  # raises its message
+    nsteps = math.ceil(steps) if t_max > 0 else 0
+    return (t_max / nsteps if nsteps > 0 else 1.0), nsteps
+
+
 def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
     """Rows ``rows`` at ``substeps``; ``shared``: every row has work[0]'s times and
     interval[0] (one grid for the lockstep kernel, no rows to compare)."""
     rk4, weights = _method(method)
     if shared:
         work = work[0]
-        hs, nsteps = (a[0] for a in _grids(work[None], substeps, interval[:1]))
+        hs, nsteps = _one_grid(work, substeps, float(interval[0]))
     else:
         hs, nsteps = _grids(work, substeps, interval)
     oq = np.empty((rows.size, work.shape[-1]))
