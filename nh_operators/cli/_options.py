@@ -5,11 +5,13 @@ the library (torch, DeepXDE) is imported, so a mistyped flag costs a fraction of
 """
 
 import argparse
+import ast
 import math
 import os
 
 __all__ = ["Parser", "positive_int", "nonnegative_int", "positive_float", "finite_float",
-           "unit_interval", "existing_file", "existing_dir", "figure_file", "FIGURE_SUFFIXES"]
+           "unit_interval", "existing_file", "existing_dir", "figure_file", "key_value",
+           "FIGURE_SUFFIXES"]
 
 #: Figure formats matplotlib's Agg and vector backends write, by file suffix.
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif",
@@ -102,3 +104,15 @@ def figure_file(text):
     if not os.path.isdir(folder) or not os.access(folder, os.W_OK):
         raise argparse.ArgumentTypeError(f"cannot write to the folder {folder!r}")
     return text
+
+
+def key_value(text):
+    """``KEY=VALUE`` with a non-empty key, as a (key, value) pair; the value is a Python
+    literal where it parses as one (``0.1``, ``True``), else the text."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key.strip(), ast.literal_eval(value)
+    except (ValueError, SyntaxError):
+        return key.strip(), value

@@ -13,6 +13,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "files": ["CHECKPOINT", "CONFIG", "HISTORY", "write_atomic"],
     "config": ["TrainConfig", "TrainingDiverged", "resolve_device"],
     "distributed": ["Distributed", "RankFailed", "init_distributed"],
+    "refinement": ["Refinement", "refine"],
     "schedulers": ["ExpHyperbolicLR", "HyperbolicLR", "adjusted_infimum_lr"],
     "trainer": ["train"],
     "training_plots": ["minutes_to_reach", "plot_training_curves", "read_history"],

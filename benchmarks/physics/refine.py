@@ -1,0 +1,122 @@
+"""Is test-time refinement ever worth it? (issue 43 §3)
+
+For each potential (the five physical ones, ``--ood`` out-of-distribution ones from
+``nh_operators.potentials.ood_potentials``, MFF among the physical) and each network
+(shipped names, or run directories of ``nh.train``), the table gives:
+
+* the network's L_tot against a reference solve (``nh.reference_solve``) and its time;
+* the same after ``nh.refine(net, potential, steps=..., ...)`` (V' from a spline of
+  1,000 samples of the potential), with the refinement's wall time and its residual
+  before and after;
+* the classical solver asked for the refined accuracy:
+  ``nh.solve_classical(potential, nh.TIMES, tol=<refined L_tot>)``, its wall time (best
+  of ``--repeat``) and its L_tot.
+
+The refinement is worth it where it lowers the error *and* costs less than the classical
+solver at that error; the last column says which.
+
+Run it (one thread)::
+
+    OMP_NUM_THREADS=1 python benchmarks/physics/refine.py --networks deeponet-paper \\
+        --optimizer adam --steps 500 --lr 1e-4 --ood 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+import nh_operators as nh
+from nh_operators.potentials import ood_potentials
+from nh_operators.training import load_model
+
+
+def network(name: str) -> tuple[str, torch.nn.Module]:
+    """A shipped network's name, or a run directory (label: its last two path parts)."""
+    if Path(name).is_dir():
+        return "/".join(Path(name).parts[-2:]), load_model(name)[0]
+    return name, nh.pretrained(name).net
+
+
+def l_tot(q: np.ndarray, p: np.ndarray, ref: tuple[np.ndarray, np.ndarray]) -> float:
+    return float(0.5 * (np.mean((q - ref[0]) ** 2) + np.mean((p - ref[1]) ** 2)))
+
+
+def best_time(call, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        call()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def row(label: str, potential, net: torch.nn.Module, args: argparse.Namespace) -> dict:
+    ref = nh.reference_solve(potential, nh.TIMES)
+    ref = (np.asarray(ref[0]).reshape(-1), np.asarray(ref[1]).reshape(-1))
+    V = torch.tensor(potential.V(nh.SENSORS)[None], dtype=next(net.parameters()).dtype)
+    t = torch.tensor(nh.TIMES[:, None], dtype=V.dtype)
+    with torch.no_grad():
+        y = net.eval()((V, t))[0].double().numpy()
+    before = l_tot(y[:, 0], y[:, 1], ref)
+    forward = best_time(lambda: net((V, t)), args.repeat)
+    r = nh.refine(net, potential, nh.TIMES, steps=args.steps, lr=args.lr,
+                  optimizer=args.optimizer, collocation=args.collocation,
+                  parameters=args.parameters)
+    after = l_tot(r.q, r.p, ref)
+    target = max(after, 1e-14)
+    solve = best_time(lambda: nh.solve_classical(potential, nh.TIMES, tol=target),
+                      args.repeat)
+    sol = nh.solve_classical(potential, nh.TIMES, tol=target)
+    return {"potential": label, "before": before, "forward": forward, "after": after,
+            "refine": r.seconds, "res0": r.residual_before, "res1": r.residual_after,
+            "classical": solve, "classical_err": l_tot(sol.q, sol.p, ref),
+            "substeps": sol.substeps}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--networks", nargs="+", default=["deeponet-paper"],
+                        help="shipped names or nh.train run directories (pointwise nets)")
+    parser.add_argument("--optimizer", choices=["adam", "lbfgs"], default="adam")
+    parser.add_argument("--steps", type=int, default=500)
+    parser.add_argument("--lr", type=float, default=1e-4)
+    parser.add_argument("--collocation", type=int, default=200)
+    parser.add_argument("--parameters", nargs="+", help="refine only these parameters "
+                        "(name prefixes, e.g. branch.linears.3: DeepONet's last branch "
+                        "layer); default all")
+    parser.add_argument("--ood", type=int, default=4, help="OOD potentials (seed 0)")
+    parser.add_argument("--repeat", type=int, default=5, help="timings: best of")
+    parser.add_argument("--threads", type=int, default=1)
+    args = parser.parse_args(argv)
+    torch.set_num_threads(args.threads)
+    potentials = list(nh.PHYSICAL_POTENTIALS.items())
+    for i, pot in enumerate(ood_potentials(args.ood, 0) if args.ood else []):
+        potentials.append((f"ood {i}: {getattr(pot, 'name', type(pot).__name__)}", pot))
+    print(f"{args.optimizer}, {args.steps} steps, lr {args.lr:g}, {args.collocation} "
+          f"collocation times, parameters {args.parameters or 'all'}, {args.threads} "
+          f"thread(s), CPU; times: best of {args.repeat}")
+    print()
+    print("| network | potential | L_tot before | after | refine s | residual before → after"
+          " | classical s at that tol (RK4 substeps) | classical L_tot | network forward s |"
+          " worth it |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name in args.networks:
+        label, net = network(name)
+        for pot_name, pot in potentials:
+            r = row(pot_name, pot, net, args)
+            better = r["after"] < r["before"]
+            worth = "yes" if better and r["refine"] < r["classical"] else (
+                "no: slower than classical" if better else "no: worse")
+            print(f"| {label} | {r['potential']} | {r['before']:.2e} | {r['after']:.2e} | "
+                  f"{r['refine']:.2f} | {r['res0']:.1e} → {r['res1']:.1e} | "
+                  f"{r['classical']:.1e} ({r['substeps']}) | {r['classical_err']:.1e} | "
+                  f"{r['forward']:.1e} | {worth} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
