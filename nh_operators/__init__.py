@@ -13,6 +13,8 @@ environment (without importing DeepXDE or writing a config file in the home fold
 each wing loads when a name from it is first used, so a classical solve never loads torch.
 """
 
+from typing import TYPE_CHECKING
+
 from ._backend import select_pytorch_backend as _select_pytorch_backend
 
 _select_pytorch_backend()
@@ -34,7 +36,42 @@ __getattr__, __dir__, _names = _attach(__name__, {
     "solving": ["DEFAULT_TOL", "ManySolution", "Solution", "available_pretrained",
                 "preload", "pretrained", "solve", "solve_many"],
     "training": ["ExpHyperbolicLR", "HyperbolicLR", "TrainConfig", "TrainingDiverged",
-                 "adjusted_infimum_lr", "load_model", "train"],
+                 "adjusted_infimum_lr", "load_model", "refine", "train"],
 })
-__all__ = ["__version__", "V0", "SENSORS", "TIMES", *_names]
+if TYPE_CHECKING:  # for static checkers only: at run time each name loads lazily
+    from .data import OperatorData, generate_dataset, load_dataset
+    from .evaluation import (CLASSICAL_METHODS, ClassicalMethod, EvaluationSettings,
+                             NeuralMethod, evaluate_methods, extreme_potentials)
+    from .models import MODELS, build_model, count_parameters, from_reference, predict
+    from .potentials import (PHYSICAL_POTENTIALS, AnalyticPotential, BoundedPotential,
+                             BoundedPotentialSpace, ExtendedPotential, OutOfDomainWarning,
+                             check_bounded, domain_violations, extend_monotone,
+                             parse_potential)
+    from .solvers import (METHODS, ResolutionWarning, integrate, integrate_sensors, paper_rk4,
+                          reference_solve, solve_classical)
+    from .solving import (DEFAULT_TOL, ManySolution, Solution, available_pretrained, preload,
+                          pretrained, solve, solve_many)
+    from .training import (ExpHyperbolicLR, HyperbolicLR, TrainConfig, TrainingDiverged,
+                           adjusted_infimum_lr, load_model, refine, train)
+
+# a plain list, so static checkers see the public names; it must repeat the table above
+__all__ = [
+    "__version__", "V0", "SENSORS", "TIMES",
+    "OperatorData", "generate_dataset", "load_dataset",
+    "CLASSICAL_METHODS", "ClassicalMethod", "EvaluationSettings", "NeuralMethod",
+    "evaluate_methods", "extreme_potentials",
+    "MODELS", "build_model", "count_parameters", "from_reference", "predict",
+    "PHYSICAL_POTENTIALS", "AnalyticPotential", "BoundedPotential", "BoundedPotentialSpace",
+    "ExtendedPotential", "OutOfDomainWarning", "check_bounded", "domain_violations",
+    "extend_monotone", "parse_potential",
+    "METHODS", "ResolutionWarning", "integrate", "integrate_sensors", "paper_rk4",
+    "reference_solve", "solve_classical",
+    "DEFAULT_TOL", "ManySolution", "Solution", "available_pretrained", "preload",
+    "pretrained", "solve", "solve_many",
+    "ExpHyperbolicLR", "HyperbolicLR", "TrainConfig", "TrainingDiverged",
+    "adjusted_infimum_lr", "load_model", "refine", "train",
+]
+if __all__[4:] != _names:
+    raise ImportError("nh_operators.__all__ does not repeat the lazy export table: "
+                      f"{sorted(set(__all__[4:]) ^ set(_names))}")
 del _attach, _names, _select_pytorch_backend

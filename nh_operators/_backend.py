@@ -107,7 +107,7 @@ def single_threaded():
     # torch not imported: nothing of torch's runs in the block (until a nested block)
     torch = None if getattr(_LOCAL, "torch", False) else sys.modules.get("torch")
     n_torch = torch.get_num_threads() if torch is not None else 1
-    if n_torch != 1:
+    if torch is not None and n_torch != 1:
         torch.set_num_threads(1)
     if torch is not None:
         _LOCAL.torch = True

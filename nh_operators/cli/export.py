@@ -52,7 +52,8 @@ def register(sub):
     ex.add_argument("--run", required=True, dest="run_dir", type=existing_dir,
                     help="run directory")
     ex.add_argument("--out", required=True, help="destination folder")
-    ex.add_argument("--report", type=existing_file, help="report.json of nh-operators evaluate with this run")
+    ex.add_argument("--report", type=existing_file,
+                    help="report.json of nh-operators evaluate with this run")
     ex.add_argument("--name", help="the model's name in the report (default: its model)")
     ex.add_argument("--command", action="append",
                     help="a command that regenerates it (repeatable, stored in metrics.json)")

@@ -6,6 +6,7 @@ import os
 from ._options import (
     existing_file,
     finite_float,
+    key_value,
     nonnegative_int,
     positive_float,
     positive_int,
@@ -30,6 +31,19 @@ def _arch_overrides(items):
     return arch
 
 
+def _physics(pairs):
+    """``TrainConfig.physics`` of ``--physics KEY=VALUE ...``: None without the flag,
+    {} for the flag alone (the residual only, every default)."""
+    if pairs is None:
+        return None
+    physics = {}
+    for key, value in pairs:
+        if key in physics:
+            raise ValueError(f"--physics gives {key!r} twice")
+        physics[key] = value
+    return physics
+
+
 def _train(args):
     from ..data import dataset_attrs
     from ..models import count_parameters
@@ -43,7 +57,8 @@ def _train(args):
                          batch_size=args.batch_size, scheduler=args.scheduler,
                          dtype=args.dtype, device=args.device, amp=args.amp,
                          loss=args.loss, ema=args.ema, variant=args.variant,
-                         recipe=args.recipe, scheduler_step=args.scheduler_step)
+                         recipe=args.recipe, scheduler_step=args.scheduler_step,
+                         physics=_physics(args.physics))
     net, history = train(config, args.data, args.out, resume=args.resume,
                          progress=not args.quiet, max_minutes=args.max_minutes,
                          stop_after=args.stop_after, max_rows=args.max_rows)
@@ -129,6 +144,11 @@ def register(sub):
                          "run that --max-minutes cut)")
     tr.add_argument("--arch", action="append", metavar="KEY=VALUE",
                     help="architecture override, repeatable (e.g. --arch d_model=64)")
+    tr.add_argument("--physics", nargs="*", action="extend", type=key_value,
+                    metavar="KEY=VALUE", help="learn from Hamilton's equations (their "
+                    "residual) instead of the labels; alone: no labels at all; options "
+                    "are PhysicsTerms fields, e.g. --physics label_fraction=0.1 "
+                    "energy=0.1 (sequence networks need --arch query_coupled=False)")
     tr.add_argument("--batch-size", type=positive_int, default=100)
     tr.add_argument("--lr", type=positive_float, help="initial learning rate (default: paper's)")
     tr.add_argument("--upper-bound", type=positive_float, help="schedule upper bound U")
@@ -153,15 +173,18 @@ def register(sub):
                         "(lr, upper bound, infimum, beta); workers may share a study")
     tu.add_argument("--model", choices=MODEL_NAMES, help="the network (or from --config)")
     tu.add_argument("--stage", required=True, choices=["grid", "tpe"])
-    tu.add_argument("--data", required=True, type=existing_file, help="dataset .h5 (validation part scores)")
+    tu.add_argument("--data", required=True, type=existing_file,
+                    help="dataset .h5 (validation part scores)")
     tu.add_argument("--trials", type=positive_int, help="trials of this worker (default: the "
                     "rest of the grid; tpe needs --trials or --timeout)")
-    tu.add_argument("--timeout", type=positive_float, metavar="MINUTES", help="start no trial after")
+    tu.add_argument("--timeout", type=positive_float, metavar="MINUTES",
+                    help="start no trial after")
     tu.add_argument("--storage", default="sqlite:///tune.db", help="Optuna RDB URL")
     tu.add_argument("--study", help="study name (default: MODEL-STAGE-SPACE)")
     tu.add_argument("--space", default="cpu", help="search space: cpu, paper or FILE.json")
     tu.add_argument("--epochs", type=positive_int, help="epochs per run (default: the space's)")
-    tu.add_argument("--seeds", type=positive_int, help="runs per trial, averaged (default: space's)")
+    tu.add_argument("--seeds", type=positive_int,
+                    help="runs per trial, averaged (default: space's)")
     tu.add_argument("--config", metavar="FILE.json", help="start from these values (the "
                     "grid stage's best for tpe)")
     tu.add_argument("--arch", action="append", metavar="KEY=VALUE", help="architecture "

@@ -43,8 +43,12 @@ class Method(abc.ABC):
     def __call__(self, V, t):
         """Args: V (N, 100) float64 sensor values; t (M,) times. Returns (q, p), (N, M) each."""
 
-    def synchronize(self):
-        """Wait for queued device work (a no-op on a CPU); called around timed sections."""
+    def synchronize(self):  # noqa: B027 (an optional hook: a no-op unless overridden)
+        """Wait for queued device work; called around timed sections.
+
+        An optional hook: a no-op here (CPU work is synchronous); a method running on an
+        asynchronous device overrides it (:meth:`NeuralMethod.synchronize`).
+        """
 
     def __repr__(self):
         return f"{type(self).__name__}({self.name!r})"
@@ -106,6 +110,9 @@ class NeuralMethod(Method):
     """
 
     kind = "neural"
+    # set by from_run only (declared, not assigned: other methods have no such attribute)
+    config: dict
+    run_dir: str
 
     def __init__(self, net, name=None, *, batch_size=1000, domain_check=True, domain=None):
         from ..models import as_network  # here: the classical methods need no torch

@@ -16,8 +16,7 @@ import numba
 import numpy as np
 
 from .._sensors import notaknot_params  # noqa: F401 (the solvers' spline kernel)
-from ..potentials._spline_kernels import FORCE, _JIT, _JIT_FN_ARG, _cubic, _dcubic, specialised
-from ..potentials.bspline import Q_OFFSET, V_OFFSET
+from ..potentials._spline_kernels import FORCE, _JIT, _JIT_FN_ARG, specialised
 
 # -------------------------------------------------------------- fixed-step solvers
 

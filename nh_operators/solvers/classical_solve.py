@@ -94,7 +94,7 @@ class ClassicalSolution:
     seconds: float
     information: str
     history: list = field(default_factory=list)
-    period: float = None
+    period: float | None = None
 
 
 def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_substeps=4096,
@@ -143,8 +143,8 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
 def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=None, *,
                    q0=0.0, p0=0.0):
     """The doubling loop of :func:`solve_classical` on an already checked potential
-    (the output of :func:`~nh_operators.potentials.as_potential`); ``start`` is the perf_counter at which the
-    solve's clock started (default: now). Runs on one thread
+    (the output of :func:`~nh_operators.potentials.as_potential`); ``start`` is the
+    perf_counter at which the solve's clock started (default: now). Runs on one thread
     (:func:`~nh_operators._backend.single_threaded`)."""
     start = time.perf_counter() if start is None else start
     t = _check_times(np.asarray(t, dtype=np.float64).reshape(-1))

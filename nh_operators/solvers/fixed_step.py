@@ -116,10 +116,10 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
             check_resolution_of(curvature, t, method, substeps, interval, potential.batched)
         return (q, p) if potential.batched else (q[0], p[0])
     if isinstance(potential, (list, tuple)):
-        q0s, p0s = state_arrays(q0, p0, len(potential))
+        q0s, p0s = state_arrays(q0, p0, len(potential))  # one state per potential
         pairs = [integrate(pot, t, method, substeps, interval=interval,
                            check_resolution=check_resolution, q0=a, p0=b)
-                 for pot, a, b in zip(potential, q0s, p0s)]
+                 for pot, a, b in zip(potential, q0s, p0s, strict=True)]
         return np.stack([a for a, _ in pairs]), np.stack([b for _, b in pairs])
     if not hasattr(potential, "dV"):
         raise TypeError(

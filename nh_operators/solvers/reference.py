@@ -31,8 +31,9 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
             curve parameter is found by bisection of q(λ) to rounding.
         rtol, atol: local error tolerances of the adaptive method (B-spline potentials).
         full_output: also return a dict with ``"energy_error"`` (max over t of
-            ``|p²/2 + V(q) - E|``, per potential, E the starting energy) and ``"steps"`` (accepted steps, -1 if
-            ``max_steps`` was exhausted; for scipy's DOP853, its function evaluations).
+            ``|p²/2 + V(q) - E|``, per potential, E the starting energy) and ``"steps"``
+            (accepted steps, -1 if ``max_steps`` was exhausted; for scipy's DOP853, its
+            function evaluations).
         max_steps: step budget per potential.
 
     Raises:

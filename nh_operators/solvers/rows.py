@@ -102,6 +102,9 @@ def row_source(pot, information):
     if isinstance(pot, BoundedPotential):
         return RowSource(_spline_kernels.bspline_force, _spline_kernels.bspline_value,
                          pot.params, True, curve=True)
+    if isinstance(pot, np.ndarray):
+        raise ValueError(f"an array of sensor values needs information 'sensors', got "
+                         f"{information!r}")
     smooth = bool(getattr(pot, "smooth", True))
     fns = compiled_functions(pot, after=1)  # compiled from its second solve on
     if fns is not None:
@@ -165,7 +168,10 @@ def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
                             oq, op, q0s, p0s)
     else:
         for k, i in enumerate(rows):
-            row = (work, hs, nsteps) if shared else (work[i], hs[i], nsteps[i])
+            # shared: one grid (Python scalars) for every row; else row i's (arrays)
+            row = ((work[i], hs[i], nsteps[i])
+                   if isinstance(hs, np.ndarray) and isinstance(nsteps, np.ndarray)
+                   else (work, hs, nsteps))
             _kernels._trajectory_fixed.py_func(src.force, src.params[0], *row, rk4,
                                                weights, oq[k], op[k], q0s[i], p0s[i])
     return oq, op
@@ -267,7 +273,7 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         keep = ~done
         rows, q, p = rows[keep], q2[keep], p2[keep]
     checked = np.flatnonzero(with_t)
-    if checked.size:
+    if checked.size and column is not None:  # rows answered from a period have a column
         pos = column[checked, m]
         miss = 0.5 * ((q_out[checked, pos] - q0s[checked]) ** 2
                       + (p_out[checked, pos] - p0s[checked]) ** 2)

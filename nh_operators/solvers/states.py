@@ -71,10 +71,11 @@ def check_states(q0s, p0s, value_at, batched=False):
             energy and the wall the particle would cross).
 
     Example:
-        >>> check_states(np.array([0.5]), np.array([3.0]), lambda q: 8 * (q - 0.5) ** 2)
+        >>> check_states(np.array([0.5]), np.array([3.0]),
+        ...              lambda q: 8 * (q - 0.5) ** 2)  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        ValueError: the state (q0 = 0.5, p0 = 3) has energy p0²/2 + V(q0) = 4.5 > V0 = 2: the particle would cross the wall at q = 1 and leave [0, 1], where V is defined
+        ValueError: the state (q0 = 0.5, p0 = 3) has energy p0²/2 + V(q0) = 4.5 > V0 = 2: ...
     """
     for i in range(q0s.size):
         if not 0.0 <= q0s[i] <= 1.0:

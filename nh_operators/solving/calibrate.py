@@ -79,7 +79,8 @@ def _classical_timings(key, pots):
         short = TIMES[TIMES <= SHORT_HORIZON + 1e-12]
         _TIMINGS[key] = {
             field + suffix: [_median_seconds(
-                lambda pot: solve(pot, times, tol=tol, method="rk4"), items)
+                lambda pot, times=times, tol=tol: solve(pot, times, tol=tol, method="rk4"),
+                items)
                 for tol in CLASSICAL_TOLS]
             for field, items in (("classical_seconds", pots),
                                  ("classical_seconds_sensors", sensors),
@@ -316,7 +317,8 @@ def _batched_classical_timings(dataset, sizes):
         sensors, bsplines = dataset.V[:sizes[0]], dataset.potentials()[:sizes[1]]
         _TIMINGS[key] = {
             field: [_per_row_seconds(
-                lambda rows: solve_many(rows, TIMES, tol=tol, method="rk4"), items, 1)
+                lambda rows, tol=tol: solve_many(rows, TIMES, tol=tol, method="rk4"),
+                items, 1)
                 for tol in CLASSICAL_TOLS]
             for field, items in (("classical_seconds_sensors_batched", sensors),
                                  ("classical_seconds_batched", bsplines))}

@@ -2,11 +2,12 @@
 
 The contract, per call: the true L_tot of ``solve(potential, t, tol=tol)`` is ≤ tol
 (tested on unseen inputs in ``tests/solving/test_network_contract.py`` and
-``tests/solvers/test_evidence.py``). :func:`contract_cases` draws inputs — test-set potentials (exact B-spline
-curves, truth = the stored labels) and potentials from outside the training
-distribution (:mod:`nh_operators.potentials.ood` and the physical ones, truth = the reference
-solver) — each with its own random set of query times. :func:`measure_contract` runs
-``solve`` and, as the baseline, always the classical solver at the same tolerance, and
+``tests/solvers/test_evidence.py``). :func:`contract_cases` draws inputs — test-set
+potentials (exact B-spline curves, truth = the stored labels) and potentials from outside
+the training distribution (:mod:`nh_operators.potentials.ood` and the physical ones,
+truth = the reference solver) — each with its own random set of query times.
+:func:`measure_contract` runs ``solve`` and, as the baseline, always the classical solver
+at the same tolerance, and
 :func:`network_estimates` checks each network's a-posteriori estimate on its own:
 how often it would accept, and how often an accepted prediction is in fact worse than
 the tolerance. ``benchmarks/promise/solve_contract.py`` prints the tables.

@@ -159,7 +159,8 @@ def _at_matrices(t_bytes, at_bytes):
     return values, integrals
 
 
-def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES, *, q0=0.0, p0=0.0):
+def estimate_at(q, p, V_rows, dV_rows, at, t=TIMES, *, q0: float | np.ndarray = 0.0,
+                p0: float | np.ndarray = 0.0):
     """A prediction on the grid ``t`` at the asked times ``at``, and its estimated L_tot.
 
     The prediction between grid times is the cubic spline through the grid values (what

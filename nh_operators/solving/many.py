@@ -295,7 +295,7 @@ def _network_pass(call: _Call, names: list[str], method: str, tol: float | None,
     runs = NetworkRuns(values, call.src, call.kind, t, call.q0s, call.p0s,
                        target if auto else np.inf, answers)
     order, pilot = names, np.zeros(n, dtype=bool)
-    if auto and free.sum() >= 2 * PILOT:
+    if auto and tol is not None and free.sum() >= 2 * PILOT:  # auto tries networks at a tol
         order = _pilot(runs, names, eligible, pilot, call, tol, tried)
     for name in order:
         part = np.flatnonzero(free & eligible[name] & ~pilot)
@@ -312,10 +312,13 @@ def _pilot(runs: NetworkRuns, names: list[str], eligible: dict, pilot: np.ndarra
     pilot[np.flatnonzero(free)[spread]] = True
     results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
                for name in names}  # (rows, q, p, estimate, accepted)
-    costs = {name: (load(name).calibration.classical_seconds(tol, call.kind, True,
-                                                             horizon_key(call.t)),
-                    load(name).calibration.neural_seconds_per(True))
-             for name in names}
+    costs = {}
+    for name in names:
+        cal = load(name).calibration
+        if cal is None:  # ranking.ranked offers calibrated networks only
+            raise RuntimeError(f"{name!r} has no calibration to weigh its pilot by")
+        costs[name] = (cal.classical_seconds(tol, call.kind, True, horizon_key(call.t)),
+                       cal.neural_seconds_per(True))
     order = pilot_order(results, costs)
     for name in order:  # the pilot rows, each answered by the first that accepts
         runs.keep(name, *results[name], tried)
@@ -377,7 +380,8 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
         except ValueError as err:
             raise row_error(err, i, str(err)) from None
     neural = np.array([s.kind == "neural" for s in sols], dtype=bool)
-    last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural)]  # a classical solve
+    # a classical solve's last try (neural has one entry per solution)
+    last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural, strict=True)]
     substeps = np.array([r.get("substeps") or 0 for r in last], dtype=np.int64)
     period = np.array([r.get("period") or np.nan for r in last], dtype=np.float64)
     truth = np.empty(n, dtype=object)

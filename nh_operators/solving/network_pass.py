@@ -54,7 +54,7 @@ def neural_solve(name: str, pot: Any, information: str, t: np.ndarray, q0: float
             return q, p, float(raw)
         early = float(np.max(t)) <= EARLY_HORIZON
         kind = InputKind.of(pot, information)
-        return q, p, float(shipped.calibration.calibrated_calls(raw, kind, early))
+        return q, p, float(shipped.calibration.calibrated_calls(np.asarray(raw), kind, early))
 
 
 def neural_raw(name: str, pot: Any, information: str, t: np.ndarray = TIMES,

@@ -112,7 +112,7 @@ def _ranked_cached(tol: float, kind: InputKind, batched: bool, states: bool,
                    horizon: float | None, names: tuple[str, ...],
                    calibrations: tuple[Calibration | None, ...]) -> tuple[tuple, list[str]]:
     candidates, notes = [], []
-    for name, cal in zip(names, calibrations):
+    for name, cal in zip(names, calibrations, strict=True):  # one calibration per name
         if load(name).reads_state != states:
             continue
         if cal is None:

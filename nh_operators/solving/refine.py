@@ -37,7 +37,8 @@ def refines(name):
     return isinstance(load(name).net, (PhaseONet, StatePhaseONet))
 
 
-def fine_estimate(name, V, values, slopes, at, q0=0.0, p0=0.0):
+def fine_estimate(name, V, values, slopes, at, q0: float | np.ndarray = 0.0,
+                  p0: float | np.ndarray = 0.0):
     """Model ``name``'s prediction for sensor values V (N, 100) from (q0, p0) on
     :data:`FINE_TIMES`, at the asked times ``at``, and its raw estimate there:
     (q, p, raw) as :func:`~nh_operators.solving.estimate.estimate_at` returns them

@@ -49,6 +49,13 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
     from .estimate import estimate_at
 
     V = pots if isinstance(pots, np.ndarray) else pots.V(SENSORS)
+    if sensors:
+        exact = None
+    elif isinstance(pots, np.ndarray):
+        raise ValueError("exact inputs (sensors=False) need a batched BoundedPotential, "
+                         "not an array of sensor values")
+    else:
+        exact = pots
     keep = np.flatnonzero(in_domain(V, network_domain(name)))
     shipped = load(name)
     net, fine = shipped.net, refines(name)
@@ -60,12 +67,12 @@ def _batch_ratios(name, pots, sensors, rng, group=20, states=None):
         early.append(np.full(rows.size, t.max() <= EARLY_HORIZON))
         state = {"q0": q0s[rows], "p0": p0s[rows]}
         q, p = predict(net, shipped.input_rows(V[rows], **state), TIMES)
-        if sensors:
+        if exact is None:
             q_ref, p_ref = integrate_sensors(V[rows], t, substeps=512, check_resolution=False,
                                              **state)
             force = sensor_force(V[rows])
         else:
-            sub = type(pots)(pots.control_q[rows], pots.control_V[rows])
+            sub = type(exact)(exact.control_q[rows], exact.control_V[rows])
             q_ref, p_ref = reference_solve(sub, t, **state)
             src = row_source(sub, "exact V")
             force = (src.values_at, lambda x, src=src: -src.forces_at(x))
