@@ -35,6 +35,7 @@ def train(problem, name, iterations):
     data = KLData(problem.data, 0.05) if name == "varonet" else problem.data
     model = dde.Model(data, net)
     model.compile("adam", lr=3e-3)
+    torch.manual_seed(0)  # VaRONet's training noise: the same draws whatever ran before
     history, _ = model.train(iterations=iterations, batch_size=problem.batch_size,
                              display_every=iterations, verbose=0)
     first, last = (float(np.sum(history.loss_train[i])) for i in (0, -1))
@@ -44,7 +45,7 @@ def train(problem, name, iterations):
 @pytest.mark.parametrize("problem,name,iterations", [
     ("antiderivative", "deeponet", 40), ("antiderivative", "fno", 30),
     ("poisson", "deeponet", 40), ("poisson", "traonet", 20),
-    ("advection", "deeponet", 30), ("advection", "varonet", 30),
+    ("advection", "deeponet", 30), ("advection", "varonet", 60),
     ("stokes", "deeponet", 20), ("stokes", "mambonet", 10),
 ])
 def test_a_network_trains_on_a_small_problem(problem, name, iterations):

@@ -241,6 +241,9 @@ def _states_for(pots, rng):
     return items
 
 
+# a few long-horizon cases miss tol at the substep cap; they come back with converged=False
+# and this warning, and the contract checked here is the estimate's, not the tol's
+@pytest.mark.filterwarnings("ignore:tolerance .* not reached:RuntimeWarning")
 def test_horizon_contract_small(pots):
     """The contract's CI version: exact SHO and MFF, the double well and one B-spline."""
     rng = np.random.default_rng(14)
