@@ -1,4 +1,4 @@
-"""Grid constants shared by every part of the package (DESIGN §1)."""
+"""Grid constants shared by every part of the package (docs/problem.rst)."""
 
 import numpy as np
 

@@ -1,4 +1,4 @@
-"""The paper's per-sample losses and summary statistics (DESIGN §2), shared by every wing.
+"""The paper's per-sample losses and summary statistics (docs/problem.rst), shared by every wing.
 
 The solvers estimate their errors in L_tot, training reports it and the evaluation
 summarises it; the public names are re-exported by :mod:`nh_operators.evaluation`.

@@ -1,4 +1,4 @@
-"""The paper's per-sample loss and its summary statistics (DESIGN §2), for evaluation.
+"""The paper's per-sample loss and its summary statistics (docs/problem.rst), for evaluation.
 
 They are defined beneath every wing, in ``nh_operators._metrics``, because the solvers'
 error estimates use them too; this module is where the evaluation wing publishes them.

@@ -144,7 +144,7 @@ def _markdown(results, figures, command, stability_md):
         f"checksum `{ts['checksum']}`.",
         f"Devices: {', '.join(devices)}; threads: {', '.join(threads)}.",
         "Every method sees the potential only at the 100 sensors. L_tot is the paper's "
-        "per-sample loss (DESIGN §2). Methods that solve one trajectory at a time in "
+        "per-sample loss (docs/problem.rst). Methods that solve one trajectory at a time in "
         "Python are scored on the first `n` test potentials only (column n).", "",
         "## Test set", "", test_table(results), "",
         "## Physical potentials", "",

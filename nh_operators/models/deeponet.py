@@ -53,6 +53,12 @@ class DeepONet(_dde.nn.pytorch.DeepONetCartesianProd):
     Raises:
         ValueError: ``query_coupled=True``, or ``query_dim`` below 1.
 
+    References:
+        L. Lu, P. Jin, G. Pang, Z. Zhang and G. E. Karniadakis, "Learning nonlinear
+        operators via DeepONet based on the universal approximation theorem of operators",
+        Nature Machine Intelligence 3, 218-229 (2021). T.-G. Kim and S. C. Park,
+        "Neural Hamilton: Can A.I. Understand Hamiltonian Mechanics?" (2024), §2.1.
+
     Example:
         >>> import torch
         >>> net = DeepONet(hidden_size=16, hidden_layers=2, branches=4)

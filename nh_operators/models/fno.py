@@ -81,6 +81,11 @@ class FNO(OperatorNet):
     The network is built in DeepXDE's default float (``dde.config.set_default_float``;
     the spectral weights then become complex128 for float64).
 
+    References:
+        Z. Li et al., "Fourier neural operator for parametric partial differential
+        equations", ICLR (2021); J. Kossaifi et al., "A library for learning neural
+        operators" (neuraloperator, 2024).
+
     Example:
         >>> import torch
         >>> net = FNO(n_modes=8, hidden_channels=8, n_layers=2)

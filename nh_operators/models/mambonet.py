@@ -59,6 +59,11 @@ class MambONet(OperatorNet):
     Raises:
         ValueError: for inconsistent options, as TraONet.
 
+    References:
+        A. Gu and T. Dao, "Mamba: linear-time sequence modeling with selective state
+        spaces", arXiv:2312.00752 (2023). T.-G. Kim and S. C. Park, "Neural Hamilton:
+        Can A.I. Understand Hamiltonian Mechanics?" (2024), §2.4.
+
     Example:
         >>> import torch
         >>> net = MambONet(d_model=16, num_mamba_layers=1, nhead=2,

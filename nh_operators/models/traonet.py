@@ -65,6 +65,11 @@ class TraONet(OperatorNet):
     Raises:
         ValueError: for inconsistent options (see above), ``d_model`` below 2 d.
 
+    References:
+        A. Vaswani et al., "Attention is all you need", NeurIPS (2017).
+        T.-G. Kim and S. C. Park, "Neural Hamilton: Can A.I. Understand Hamiltonian
+        Mechanics?" (2024), §2.3.
+
     Example:
         >>> import torch
         >>> net = TraONet(d_model=16, nhead=2, num_layers=1, dim_feedforward=32)

@@ -99,6 +99,12 @@ class VaRONet(OperatorNet):
     ``query_coupled=True`` and times, ask for them in increasing order. The network is
     built in DeepXDE's default float (``dde.config.set_default_float``).
 
+    References:
+        D. P. Kingma and M. Welling, "Auto-encoding variational Bayes", ICLR (2014);
+        S. Hochreiter and J. Schmidhuber, "Long short-term memory", Neural Computation 9
+        (1997). T.-G. Kim and S. C. Park, "Neural Hamilton: Can A.I. Understand Hamiltonian
+        Mechanics?" (2024), §2.2.
+
     Example:
         >>> import torch
         >>> net = VaRONet(hidden_size=8, num_layers=1, latent_dim=4).eval()

@@ -1,6 +1,6 @@
 """Potential objects: the generator's exact B-spline potentials, and the bounded checks.
 
-A *bounded potential* (DESIGN §1) is a C² function on [0, 1] with V(0) = V(1) = V0 = 2
+A *bounded potential* (docs/problem.rst) is a C² function on [0, 1] with V(0) = V(1) = V0 = 2
 and V(q) < V0 for 0 < q < 1, so a particle released at rest at q = 0 stays in [0, 1].
 """
 

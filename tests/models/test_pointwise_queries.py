@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import pytest
 import torch
+from model_helpers import advection_operator_data
 
 import nh_operators as nh
 from nh_operators.models import cast_network
@@ -250,20 +251,7 @@ def test_query_encoding_of_one_coordinate_is_the_papers():
 def test_physics_informed_training_on_x_t_lowers_the_loss(name):
     """Advection u_t + u_x = 0 on (x, t) ∈ [0, 1]², u(x, 0) = v(x): DeepXDE's
     PDEOperatorCartesianProd with 2-D query points, 20 Adam steps."""
-    geom = dde.geometry.GeometryXTime(dde.geometry.Interval(0, 1),
-                                      dde.geometry.TimeDomain(0, 1))
-
-    def pde(x, u, v):
-        return dde.grad.jacobian(u, x, j=1) + dde.grad.jacobian(u, x, j=0)
-
-    ic = dde.icbc.DirichletBC(geom, lambda x, v: v, lambda x, _: np.isclose(x[1], 0))
-    np.random.seed(0)   # DeepXDE samples from NumPy's global generator
-    pde_data = dde.data.TimePDE(geom, pde, ic, num_domain=20, num_initial=8,
-                                train_distribution="uniform")
-    space = dde.data.Chebyshev(N=4)
-    sensors = np.linspace(0, 1, 12)[:, None]
-    data_obj = dde.data.PDEOperatorCartesianProd(pde_data, space, sensors, 6,
-                                                 function_variables=[0])
+    data_obj = advection_operator_data(12, 6, num_domain=20, num_initial=8)
     torch.manual_seed(0)
     net = nh.build_model(name, "cpu", **POINTWISE[name], n_sensors=12, n_outputs=1,
                          query_dim=2, query_coupled=False)

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 import torch
+from model_helpers import advection_operator_data
 from scipy.interpolate import CubicSpline
 
 from nh_operators._backend import ensure_pytorch_backend
@@ -366,19 +367,7 @@ def test_a_short_deepxde_training_on_2d_queries_lowers_the_loss(kind):
 
 
 def test_kl_data_keeps_the_kl_term_in_a_physics_informed_data_object():
-    geom = dde.geometry.GeometryXTime(dde.geometry.Interval(0, 1),
-                                      dde.geometry.TimeDomain(0, 1))
-
-    def pde(x, u, v):
-        return dde.grad.jacobian(u, x, j=1) + dde.grad.jacobian(u, x, j=0)
-
-    ic = dde.icbc.DirichletBC(geom, lambda x, v: v, lambda x, _: np.isclose(x[1], 0))
-    np.random.seed(0)  # DeepXDE samples from NumPy's global generator
-    pde_data = dde.data.TimePDE(geom, pde, ic, num_domain=12, num_initial=4,
-                                train_distribution="uniform")
-    inner = dde.data.PDEOperatorCartesianProd(pde_data, dde.data.Chebyshev(N=4),
-                                              np.linspace(0, 1, 10)[:, None], 3,
-                                              function_variables=[0])
+    inner = advection_operator_data(10, 3, num_domain=12, num_initial=4)
     data = KLData(inner, beta=2.0)
     net = _net("varonet", 2, n_outputs=1)
     model = dde.Model(data, net)
