@@ -18,25 +18,6 @@ import nh_operators
 
 PACKAGE = Path(nh_operators.__file__).resolve().parent
 
-#: Private imports that existed in wings other than ``solving/`` when this test was
-#: written (module -> the names), to be removed by their owners; a new one fails.
-KNOWN = {
-    "data/generate.py": {"_Source"},
-    "potentials/compiled.py": {"_A", "_DE"},
-    "solvers/_curve_fixed.py": {"_JIT", "_cubic", "_dcubic", "_curve_parameter", "_hermite"},
-    "solvers/_curve_kernels.py": {"_JIT", "_cubic", "_dcubic"},
-    "solvers/_kernels.py": {"_JIT", "_JIT_FN_ARG", "_cubic", "_dcubic"},
-    "solvers/_orbit.py": {"_JIT", "_JIT_FN_ARG"},
-    "solvers/_reduce.py": {"_JIT"},
-    "solvers/classical_solve.py": {"_check_times"},
-    "solvers/fixed_step.py": {"_check_times", "_method", "_step_grid"},
-    "solvers/reference.py": {"_check_times"},
-    "solvers/resolution.py": {"_method", "_step_grid"},
-    "solvers/rows.py": {"_method"},
-    "training/trainer.py": {"_EpochEnd", "_Run"},
-    "training/tuning.py": {"_best_trial", "_check_settings"},
-}
-
 
 def _is_module(base: Path, name: str) -> bool:
     return (base / f"{name}.py").is_file() or (base / name / "__init__.py").is_file()
@@ -72,7 +53,7 @@ def test_no_module_imports_a_private_name_from_another():
     problems = []
     for path in sorted(PACKAGE.rglob("*.py")):
         rel = path.relative_to(PACKAGE).as_posix()
-        names = private_imports(path) - KNOWN.get(rel, set())
+        names = private_imports(path)
         if names:
             problems.append(f"{rel} imports {sorted(names)}")
     assert not problems, "\n".join(problems)

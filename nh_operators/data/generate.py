@@ -16,7 +16,7 @@ from .._dataset_presets import DATASET_PRESETS
 from .._version import __version__
 from ..potentials import BoundedPotential, BoundedPotentialSpace
 from ._h5 import read_dataset, write_streamed
-from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, _Source, label_potentials
+from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, SampleSource, label_potentials
 
 __all__ = ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset",
            "label_potentials", "load_dataset", "preset_kwargs"]
@@ -238,7 +238,7 @@ def generate_dataset(n: int, seed: int, path: str | os.PathLike[str] | None = No
             raise ValueError(f"states must be None or 'energy', got {states!r}")
         stream = StateStream(seed, separatrix_share)
         attrs["states"] = stream.params()
-    source = _Source(space, rtol, energy_tol, skip, stream)
+    source = SampleSource(space, rtol, energy_tol, skip, stream)
     if path is None:
         arrays, drops = source.take(n)
         attrs["dropped"] = drops

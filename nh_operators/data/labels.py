@@ -1,7 +1,7 @@
 """Exact labels of drawn potentials, and the stream that draws, labels and filters them.
 
 :func:`label_potentials` labels a batch by the reference solve and names why an invalid
-sample fails; :class:`_Source` is the resumable stream :func:`~.generate.generate_dataset`
+sample fails; :class:`SampleSource` is the resumable stream :func:`~.generate.generate_dataset`
 writes from; :class:`StateStream` draws the starting states of a dataset with states.
 """
 
@@ -84,7 +84,7 @@ class StateStream:
                              separatrix_share=self.separatrix_share)
 
 
-class _Source:
+class SampleSource:
     """Draws, labels and filters potentials; remembers how many were dropped and why."""
 
     def __init__(self, space, rtol, energy_tol, skip=0, states=None):

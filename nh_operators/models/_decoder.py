@@ -150,7 +150,7 @@ class TimeDecoder(nn.Module):
 
     A query point x = (x_1, ..., x_d) (for the paper's problem d = 1, the time t) becomes
     Linear(d, d_model)(x) plus :func:`query_encoding` of x: sinusoidal features at the
-    positions x_k · ``time_scale``_k, the frequencies dealt to the coordinates in turn.
+    positions x_k · ``time_scale[k]``, the frequencies dealt to the coordinates in turn.
     The scale sets the range: a position difference of 1 is one step of the finest
     frequency. On the standard grid t_i = 2i/99 the default scale 99/2 makes the
     position the index i, as in the paper (unlike an index it keeps its meaning for any

@@ -43,10 +43,11 @@ class MambONet(OperatorNet):
         d_state, d_conv, expand: Mamba's state size (16), convolution width (4) and
             expansion factor (2).
         dropout: decoder dropout (default 0).
-        n_sensors, n_outputs, time_scale, query_coupled, query_attention, norm_first,
-            activation, query_dim, regularization: as
-            :class:`~nh_operators.models.TraONet` (norm_first and activation for the
-            decoder). The query points are embedded and scaled as TraONet's (see
+        n_sensors, n_outputs, time_scale, query_dim, regularization: as
+            :class:`~nh_operators.models.TraONet`.
+        query_coupled, query_attention: as :class:`~nh_operators.models.TraONet`.
+        norm_first, activation: as :class:`~nh_operators.models.TraONet`, for the
+            decoder. The query points are embedded and scaled as TraONet's (see
             there: Linear(d, d_model) plus sinusoidal features of x_k · time_scale, the
             frequencies dealt to the d coordinates in turn); with
             ``query_coupled=False`` each is predicted on its own and ``dde.grad`` gives

@@ -122,8 +122,6 @@ def build_model(name: ModelName, preset: Preset = "paper", variant: Variant = "o
     return VARIANTS[variant][0][name](**config)
 
 
-#: Recipes: "ours" (the paper's TPE optimum, AdamW betas (0.85, 0.98), the schedule
-#: moved every iteration) and "reference" (as the authors' code ran it).
 class Recipe(TypedDict):
     """A training recipe: the values by model, AdamW's betas, when the schedule moves."""
 
@@ -132,6 +130,8 @@ class Recipe(TypedDict):
     scheduler_step: Literal["iteration", "epoch"]
 
 
+#: Recipes: "ours" (the paper's TPE optimum, AdamW betas (0.85, 0.98), the schedule
+#: moved every iteration) and "reference" (as the authors' code ran it).
 RECIPES: dict[str, Recipe] = {
     "ours": {"values": TRAINING, "betas": (0.85, 0.98), "scheduler_step": "iteration"},
     "reference": {"values": REFERENCE_TRAINING, "betas": (0.9, 0.999),

@@ -22,7 +22,7 @@ class TraONet(OperatorNet):
     **Query points.** A query point x of d = ``query_dim`` coordinates (the time t for
     the paper's problem) is embedded as Linear(d, d_model)(x) plus sinusoidal features:
     the d_model / 2 frequencies 10000^(-2j/d_model) are dealt to the coordinates in turn
-    (j ↦ coordinate j mod d), each at the position x_k · ``time_scale``_k. The scale sets
+    (j ↦ coordinate j mod d), each at the position x_k · ``time_scale[k]``. The scale sets
     the resolution: the finest frequency turns by one radian per unit of position, so a
     good scale is about (points per coordinate − 1) / (its range), e.g. 99/2 for 100
     times on [0, 2] (the default, where the position is the grid index), 63 for 64 points

@@ -22,13 +22,15 @@ import numba
 
 from .bspline import Q_OFFSET, V_OFFSET
 
-_JIT: dict[str, Any] = dict(nogil=True, cache=True)
-# A kernel that takes a compiled function as an argument cannot be cached: numba keys its
-# entries by the argument's dispatcher object, which is new in every process (entries
-# never match again, the index grows, saving it eventually fails). Such kernels (the
-# steppers, the period quadrature) are inlined instead into the *specialised* kernels of
-# :func:`specialised`, which call the function by a global name and are cached.
-_JIT_FN_ARG: dict[str, Any] = dict(nogil=True, inline="always")
+#: The ``numba.njit`` options of every cached kernel of the package.
+JIT: dict[str, Any] = dict(nogil=True, cache=True)
+#: The options of a kernel that takes a compiled function as an argument. Such a kernel
+#: cannot be cached: numba keys its entries by the argument's dispatcher object, which is
+#: new in every process (entries never match again, the index grows, saving it eventually
+#: fails). Such kernels (the steppers, the period quadrature) are inlined instead into the
+#: *specialised* kernels of :func:`specialised`, which call the function by a global name
+#: and are cached.
+JIT_FN_ARG: dict[str, Any] = dict(nogil=True, inline="always")
 
 #: The names a kernel template calls (``FORCE(par, x)``...); :func:`specialised` binds
 #: them to compiled functions.
@@ -37,17 +39,19 @@ FORCE: Any = None
 VALUE: Any = None
 
 
-@numba.njit(**_JIT)
-def _cubic(c, o, s):
+@numba.njit(**JIT)
+def cubic(c, o, s):
+    """The cubic with coefficients ``c[o:o + 4]`` (constant first) at ``s``."""
     return c[o] + s * (c[o + 1] + s * (c[o + 2] + s * c[o + 3]))
 
 
-@numba.njit(**_JIT)
-def _dcubic(c, o, s):
+@numba.njit(**JIT)
+def dcubic(c, o, s):
+    """The derivative in ``s`` of :func:`cubic`."""
     return c[o + 1] + s * (2.0 * c[o + 2] + s * 3.0 * c[o + 3])
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _d2cubic(c, o, s):
     return 2.0 * c[o + 2] + 6.0 * s * c[o + 3]
 
@@ -55,7 +59,7 @@ def _d2cubic(c, o, s):
 # ---------------------------------------------------------------- B-spline potentials
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def bspline_locate(par, x):
     """Return (piece offset, s) with q(s) = x on that piece, by safeguarded Newton.
 
@@ -72,7 +76,7 @@ def bspline_locate(par, x):
             break
     oq = Q_OFFSET + 4 * j
     q_lo = par[oq]
-    q_hi = _cubic(par, oq, 1.0)
+    q_hi = cubic(par, oq, 1.0)
     if x < q_lo:  # left of the curve: extrapolate the first piece
         lo, hi = -1.0, 0.0
     elif x > q_hi:  # right of the curve: extrapolate the last piece
@@ -82,14 +86,14 @@ def bspline_locate(par, x):
     s = (x - q_lo) / (q_hi - q_lo)
     s = min(max(s, lo), hi)
     for _ in range(100):
-        g = _cubic(par, oq, s) - x
+        g = cubic(par, oq, s) - x
         if g == 0.0:
             break
         if g > 0.0:
             hi = s
         else:
             lo = s
-        d = _dcubic(par, oq, s)
+        d = dcubic(par, oq, s)
         step = g / d if d > 0.0 else 2.0 * (hi - lo)
         s_new = s - step
         if not (lo <= s_new <= hi):
@@ -108,10 +112,10 @@ def bspline_locate(par, x):
     return j, s
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def bspline_value(par, x):
     j, s = bspline_locate(par, x)
-    return _cubic(par, V_OFFSET + 4 * j, s)
+    return cubic(par, V_OFFSET + 4 * j, s)
 
 
 #: Within this distance outside [0, 1] forces follow the end pieces (so a stage that
@@ -121,7 +125,7 @@ def bspline_value(par, x):
 OUTSIDE_MARGIN = 0.05
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _guard(x):
     if x < -OUTSIDE_MARGIN:
         return 0.0
@@ -130,26 +134,26 @@ def _guard(x):
     return x
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def bspline_force(par, x):
     j, s = bspline_locate(par, _guard(x))
-    return -_dcubic(par, V_OFFSET + 4 * j, s) / _dcubic(par, Q_OFFSET + 4 * j, s)
+    return -dcubic(par, V_OFFSET + 4 * j, s) / dcubic(par, Q_OFFSET + 4 * j, s)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def bspline_curvature(par, x):
     """d²V/dq² from the curve: (V'' q' - V' q'') / q'³ in the curve parameter."""
     j, s = bspline_locate(par, x)
     oq = Q_OFFSET + 4 * j
     ov = V_OFFSET + 4 * j
-    dq = _dcubic(par, oq, s)
-    return (_d2cubic(par, ov, s) * dq - _dcubic(par, ov, s) * _d2cubic(par, oq, s)) / dq**3
+    dq = dcubic(par, oq, s)
+    return (_d2cubic(par, ov, s) * dq - dcubic(par, ov, s) * _d2cubic(par, oq, s)) / dq**3
 
 
 # ------------------------------------------------- piecewise cubics on a uniform q-grid
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _grid_piece(par, x):
     n = par.shape[0] // 4
     u = x * n
@@ -157,16 +161,16 @@ def _grid_piece(par, x):
     return 4 * j, u - j, n
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def grid_value(par, x):
     o, s, _ = _grid_piece(par, x)
-    return _cubic(par, o, s)
+    return cubic(par, o, s)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def grid_force(par, x):
     o, s, n = _grid_piece(par, _guard(x))
-    return -n * _dcubic(par, o, s)
+    return -n * dcubic(par, o, s)
 
 
 # ------------------------------------------------------------- vectorised evaluation
@@ -211,7 +215,7 @@ def specialised(template, functions, **options):
     """``template`` compiled with ``functions`` bound to its global names, cached on disk.
 
     A kernel that took ``force`` as an argument would be compiled again in every process
-    (see ``_JIT_FN_ARG``); its template instead calls ``FORCE(par, x)`` (or ``VALUE``,
+    (see ``JIT_FN_ARG``); its template instead calls ``FORCE(par, x)`` (or ``VALUE``,
     ``FN``, or the name of another template, bound to that template's copy), and each set
     of functions gets a compiled copy of its own, named after the template, the functions
     and a hash of their sources (so an edited force never reuses stale code: numba itself
@@ -254,7 +258,7 @@ def specialised(template, functions, **options):
         copy.__qualname__ = ".".join([template.__qualname__, *names, digest.hexdigest()[:12]])
         copy.__module__ = template.__module__
         copy.__doc__ = template.__doc__
-        compiled: Any = numba.njit(**_JIT, **options)(copy)
+        compiled: Any = numba.njit(**JIT, **options)(copy)
         compiled._bound = names  # read back above when this kernel is bound in turn
         kernel = compiled
         _SPECIALISED[key] = kernel

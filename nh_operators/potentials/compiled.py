@@ -20,7 +20,7 @@ import math
 import numba
 
 from .expression import Expression, parse_expression
-from .physical import _A, _DE, PHYSICAL_POTENTIALS, SMFF_ALPHA
+from .physical import MORSE_A, MORSE_DE, PHYSICAL_POTENTIALS, SMFF_ALPHA
 
 __all__ = ["compile_expression", "compiled_functions"]
 
@@ -122,7 +122,7 @@ _PHYSICAL_FORMULAS = {
     "sho": "8*(q-0.5)**2",
     "double_well": "625/8*(q-0.2)**2*(q-0.8)**2",
     "mff": "4*abs(q-0.5)",
-    "morse": f"{_DE!r}*(1-exp(-{_A!r}*(q-1/3)))**2",
+    "morse": f"{MORSE_DE!r}*(1-exp(-{MORSE_A!r}*(q-1/3)))**2",
 }
 
 

@@ -99,17 +99,18 @@ def _mff_from_state(t, q0, p0):
     return qs, ps
 
 
-_DE = 8.0 / (math.sqrt(5.0) - 1.0) ** 2
-_A = 3.0 * math.log((1.0 + math.sqrt(5.0)) / 2.0)
+#: Depth D_e and width a of the physical Morse potential D_e (1 - exp(-a (q - 1/3)))².
+MORSE_DE = 8.0 / (math.sqrt(5.0) - 1.0) ** 2
+MORSE_A = 3.0 * math.log((1.0 + math.sqrt(5.0)) / 2.0)
 
 
 def _morse_V(q):
-    return _DE * (1.0 - np.exp(-_A * (q - 1.0 / 3.0))) ** 2
+    return MORSE_DE * (1.0 - np.exp(-MORSE_A * (q - 1.0 / 3.0))) ** 2
 
 
 def _morse_dV(q):
-    e = np.exp(-_A * (q - 1.0 / 3.0))
-    return 2.0 * _DE * _A * e * (1.0 - e)
+    e = np.exp(-MORSE_A * (q - 1.0 / 3.0))
+    return 2.0 * MORSE_DE * MORSE_A * e * (1.0 - e)
 
 
 #: α of the physical SMFF (the paper's value).

@@ -24,10 +24,10 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT, _cubic, _dcubic
+from ..potentials._spline_kernels import JIT, cubic, dcubic
 from ..potentials.bspline import Q_OFFSET, V_OFFSET
-from ._curve_kernels import _curve_parameter
-from ._kernels import _hermite
+from ._curve_kernels import curve_parameter
+from ._kernels import hermite
 
 __all__ = ["curve_rows_fixed"]
 
@@ -35,31 +35,31 @@ __all__ = ["curve_rows_fixed"]
 LAMBDA_MARGIN = 0.25
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _rates(par, lam):
     """(dλ/dt per unit p, dp/dt) at λ: 1 / q_λ and -V_λ / q_λ."""
     pieces = int(par[0])
     u = min(max(lam * pieces, -LAMBDA_MARGIN), pieces + LAMBDA_MARGIN)
     j = min(max(int(math.floor(u)), 0), pieces - 1)
     s = u - j
-    r = 1.0 / _dcubic(par, Q_OFFSET + 4 * j, s)
-    return r / pieces, -_dcubic(par, V_OFFSET + 4 * j, s) * r
+    r = 1.0 / dcubic(par, Q_OFFSET + 4 * j, s)
+    return r / pieces, -dcubic(par, V_OFFSET + 4 * j, s) * r
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _q_at(par, lam):
     pieces = int(par[0])
     u = min(max(lam * pieces, 0.0), float(pieces))
     j = min(int(math.floor(u)), pieces - 1)
-    return _cubic(par, Q_OFFSET + 4 * j, u - j)
+    return cubic(par, Q_OFFSET + 4 * j, u - j)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _curve_row(par, tq, h, nsteps, oq, op, q_start, p_start):
     """One trajectory from (q_start, p_start): ``nsteps`` RK4 steps of size ``h`` in
     (λ, p); ``tq`` sorted in [0, nsteps h]; results into ``oq``, ``op``."""
     m = tq.shape[0]
-    lam = 0.0 if q_start <= 0.0 else _curve_parameter(par, q_start)
+    lam = 0.0 if q_start <= 0.0 else curve_parameter(par, q_start)
     p = p_start
     g, f = _rates(par, lam)
     k = 0
@@ -90,8 +90,8 @@ def _curve_row(par, tq, h, nsteps, oq, op, q_start, p_start):
         last = n == nsteps - 1
         while k < m and (last or tq[k] <= t1):
             theta = (tq[k] - t0) / h
-            oq[k] = _q_at(par, _hermite(theta, h, lam0, dl0, lam, p * g))
-            op[k] = _hermite(theta, h, p0, f0, p, f)
+            oq[k] = _q_at(par, hermite(theta, h, lam0, dl0, lam, p * g))
+            op[k] = hermite(theta, h, p0, f0, p, f)
             k += 1
 
 
@@ -101,7 +101,7 @@ def _curve_row(par, tq, h, nsteps, oq, op, q_start, p_start):
 LANES = 4
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _curve_lanes(pars, rows, lo, tq, h, nsteps, oq, op, q0s, p0s):
     """Rows ``rows[lo:lo + LANES]`` (outputs ``oq[lo + l]``) on one step grid."""
     lam = np.empty(LANES)
@@ -123,7 +123,7 @@ def _curve_lanes(pars, rows, lo, tq, h, nsteps, oq, op, q0s, p0s):
     f4 = np.empty(LANES)
     for la in range(LANES):
         i = rows[lo + la]
-        lam[la] = 0.0 if q0s[i] <= 0.0 else _curve_parameter(pars[i], q0s[i])
+        lam[la] = 0.0 if q0s[i] <= 0.0 else curve_parameter(pars[i], q0s[i])
         p[la] = p0s[i]
         g[la], f[la] = _rates(pars[i], lam[la])
     m = tq.shape[0]
@@ -162,13 +162,13 @@ def _curve_lanes(pars, rows, lo, tq, h, nsteps, oq, op, q0s, p0s):
             theta = (tq[k] - t0) / h
             for la in range(LANES):
                 par = pars[rows[lo + la]]
-                oq[lo + la, k] = _q_at(par, _hermite(theta, h, lam0[la], dl0[la], lam[la],
+                oq[lo + la, k] = _q_at(par, hermite(theta, h, lam0[la], dl0[la], lam[la],
                                                      p[la] * g[la]))
-                op[lo + la, k] = _hermite(theta, h, p0[la], f0[la], p[la], f[la])
+                op[lo + la, k] = hermite(theta, h, p0[la], f0[la], p[la], f[la])
             k += 1
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **JIT)
 def _shared_grid(pars, rows, tq, h, nsteps, oq, op, q0s, p0s):
     blocks = rows.shape[0] // LANES
     for b in numba.prange(blocks):
@@ -178,7 +178,7 @@ def _shared_grid(pars, rows, tq, h, nsteps, oq, op, q0s, p0s):
         _curve_row(pars[i], tq, h, nsteps, oq[k], op[k], q0s[i], p0s[i])
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **JIT)
 def _own_grids(pars, rows, tq, hs, nsteps, oq, op, q0s, p0s):
     for k in numba.prange(rows.shape[0]):
         i = rows[k]

@@ -6,7 +6,7 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT, _cubic, _dcubic
+from ..potentials._spline_kernels import JIT, cubic, dcubic
 from ..potentials.bspline import Q_OFFSET, V_OFFSET
 
 _C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)
@@ -27,28 +27,28 @@ for _i, _row in enumerate(_A):
     _AM[_i, : len(_row)] = _row
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _curve_rhs(par, lam, p):
     """Hamilton's equations in the curve parameter: λ' = p / q_λ, p' = -V_λ / q_λ."""
     pieces = int(par[0])
     u = lam * pieces
     j = min(max(int(math.floor(u)), 0), pieces - 1)
     s = u - j
-    dq = _dcubic(par, Q_OFFSET + 4 * j, s)
-    return p / (pieces * dq), -_dcubic(par, V_OFFSET + 4 * j, s) / dq
+    dq = dcubic(par, Q_OFFSET + 4 * j, s)
+    return p / (pieces * dq), -dcubic(par, V_OFFSET + 4 * j, s) / dq
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _curve_point(par, lam):
     pieces = int(par[0])
     u = lam * pieces
     j = min(max(int(math.floor(u)), 0), pieces - 1)
     s = u - j
-    return _cubic(par, Q_OFFSET + 4 * j, s), _cubic(par, V_OFFSET + 4 * j, s)
+    return cubic(par, Q_OFFSET + 4 * j, s), cubic(par, V_OFFSET + 4 * j, s)
 
 
-@numba.njit(**_JIT)
-def _curve_parameter(par, q):
+@numba.njit(**JIT)
+def curve_parameter(par, q):
     """The λ with q(λ) = q on a curve whose q(λ) increases, by bisection to rounding."""
     lo, hi = 0.0, 1.0
     while True:
@@ -61,7 +61,7 @@ def _curve_parameter(par, q):
             hi = mid
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov, lam0, p0):
     """Adaptive DP5(4) solve of one B-spline potential from (λ0, p0), landing exactly on
     each tq.
@@ -118,7 +118,7 @@ def _trajectory_dp5(par, tq, rtol, atol, max_steps, oq, op, ov, lam0, p0):
     return steps
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **JIT)
 def batch_dp5(pars, tq, rtol, atol, max_steps, oq, op, ov, steps, lam0s, p0s):
     """Row i from the curve parameter lam0s[i] with momentum p0s[i]."""
     for i in numba.prange(pars.shape[0]):
@@ -126,9 +126,9 @@ def batch_dp5(pars, tq, rtol, atol, max_steps, oq, op, ov, steps, lam0s, p0s):
                                    lam0s[i], p0s[i])
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **JIT)
 def curve_starts(pars, q0s, lam0s, v0s):
     """The curve parameter λ0 of q0s[i] on row i's curve, and V there."""
     for i in numba.prange(pars.shape[0]):
-        lam0s[i] = 0.0 if q0s[i] <= 0.0 else _curve_parameter(pars[i], q0s[i])
+        lam0s[i] = 0.0 if q0s[i] <= 0.0 else curve_parameter(pars[i], q0s[i])
         v0s[i] = _curve_point(pars[i], lam0s[i])[1]

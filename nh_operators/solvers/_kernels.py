@@ -16,20 +16,22 @@ import numba
 import numpy as np
 
 from .._sensors import notaknot_params  # noqa: F401 (the solvers' spline kernel)
-from ..potentials._spline_kernels import FORCE, _JIT, _JIT_FN_ARG, specialised
+from ..potentials._spline_kernels import FORCE, JIT, JIT_FN_ARG, specialised
 
 # -------------------------------------------------------------- fixed-step solvers
 
 
-@numba.njit(**_JIT)
-def _hermite(theta, h, y0, d0, y1, d1):
+@numba.njit(**JIT)
+def hermite(theta, h, y0, d0, y1, d1):
+    """The cubic Hermite interpolant at ``theta`` ∈ [0, 1] of a step of size ``h`` from
+    (value y0, derivative d0) to (y1, d1)."""
     t2 = theta * theta
     t3 = t2 * theta
     return ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + theta) * h * d0
             + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * d1)
 
 
-@numba.njit(**_JIT_FN_ARG)
+@numba.njit(**JIT_FN_ARG)
 def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
     """One trajectory from (q_start, p_start) with ``nsteps`` steps of size ``h``.
 
@@ -74,8 +76,8 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, 
         last = n == nsteps - 1
         while k < m and (last or tq[k] <= t1):
             theta = (tq[k] - t0) / h
-            oq[k] = _hermite(theta, h, q0, p0, q, p)
-            op[k] = _hermite(theta, h, p0, f0, p, f)
+            oq[k] = hermite(theta, h, q0, p0, q, p)
+            op[k] = hermite(theta, h, p0, f0, p, f)
             k += 1
 
 
@@ -86,7 +88,7 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, 
 LANES = 4
 
 
-@numba.njit(**_JIT_FN_ARG)
+@numba.njit(**JIT_FN_ARG)
 def _lanes_fixed(force, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):
     """Rows ``rows[lo:lo + LANES]`` (outputs ``oq[lo + l]``), which share the sorted
     times ``tq`` and the step grid (``h``, ``nsteps``), advanced side by side."""
@@ -147,8 +149,8 @@ def _lanes_fixed(force, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s
         while k < m and (last or tq[k] <= t1):
             theta = (tq[k] - t0) / h
             for la in range(LANES):
-                oq[lo + la, k] = _hermite(theta, h, qa[la], pa[la], q[la], p[la])
-                op[lo + la, k] = _hermite(theta, h, pa[la], fa[la], p[la], f[la])
+                oq[lo + la, k] = hermite(theta, h, qa[la], pa[la], q[la], p[la])
+                op[lo + la, k] = hermite(theta, h, pa[la], fa[la], p[la], f[la])
             k += 1
 
 
@@ -223,7 +225,7 @@ def rows_fixed(force, pars, rows, tq, hs, nsteps, rk4, weights, oq, op, q0s, p0s
                                       p0s)
 
 
-@numba.njit(parallel=True, **_JIT)
+@numba.njit(parallel=True, **JIT)
 def level_gap(q, p, q2, p2, w):
     """½ Σ_j w_j ((q2 − q)² + (p2 − p)²) of every row (K,): the gap of two levels.
 

@@ -26,7 +26,7 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import FN, FORCE, VALUE, _JIT, _JIT_FN_ARG, specialised
+from ..potentials._spline_kernels import FN, FORCE, VALUE, JIT, JIT_FN_ARG, specialised
 
 #: Status codes of :func:`orbit_period`.
 OK, STATIONARY, NOT_CONVERGED, BARRIER = 0, 1, 2, 3
@@ -54,7 +54,7 @@ _OUTSIDE = 0.05  # how far past a wall a turning point is looked for
 _FLAT = 1e-7  # |V'| at a turning point below this share of max |V'|: a separatrix
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _at_rest(out, q0):
     """Fill ``out`` for a particle that stays at q0 (no period); returns STATIONARY."""
     out[0] = math.inf
@@ -320,7 +320,7 @@ def orbit_period(value, force, par, q0, p0, rate, out):
     return status
 
 
-_orbit_period_jit = numba.njit(**_JIT_FN_ARG)(orbit_period)
+_orbit_period_jit = numba.njit(**JIT_FN_ARG)(orbit_period)
 
 
 # Templates compiled once per (value, force) or fn and cached on disk (specialised: the

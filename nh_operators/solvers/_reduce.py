@@ -11,14 +11,14 @@ import math
 import numba
 import numpy as np
 
-from ..potentials._spline_kernels import _JIT
+from ..potentials._spline_kernels import JIT
 from ._orbit import OK, STATIONARY
 
 #: Verdicts of :func:`plan_rows`, per row.
 USE, STILL, DIRECT, BEYOND, LOOSE_FAR, FAILED_FAR = 0, 1, 2, 3, 4, 5
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def ulp(x):
     """The spacing of float64 numbers at |x| (``np.spacing`` for finite x ≥ 0)."""
     x = abs(x)
@@ -30,7 +30,7 @@ def ulp(x):
     return math.ldexp(1.0, max(e - 53, -1074))
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def plan_rows(ts, tols, need, out, status, loose, direct_horizon, work, column, shifts,
               phase, period, periodic, verdict):
     """Fill the plan of rows ``need`` (see :func:`.periodic.plan_horizon`).

@@ -42,7 +42,7 @@ import numpy as np
 from .._backend import single_threaded
 from ..potentials.coerce import as_potential
 from .rows import RESOLVED_STEP, row_source, solve_rows
-from .schemes import ORDERS, _check_times
+from .schemes import ORDERS, check_times
 from .states import check_states, state_arrays
 
 __all__ = ["ClassicalSolution", "solve_classical", "adaptive_solve", "RESOLVED_STEP",
@@ -147,7 +147,7 @@ def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=No
     perf_counter at which the solve's clock started (default: now). Runs on one thread
     (:func:`~nh_operators._backend.single_threaded`)."""
     start = time.perf_counter() if start is None else start
-    t = _check_times(np.asarray(t, dtype=np.float64).reshape(-1))
+    t = check_times(np.asarray(t, dtype=np.float64).reshape(-1))
     with single_threaded():
         src = row_source(pot, information)
         q0s, p0s = state_arrays(q0, p0, 1)

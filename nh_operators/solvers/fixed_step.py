@@ -27,7 +27,7 @@ from .resolution import (
     spline_curvature,
     spline_drift,
 )
-from .schemes import _check_times, _method, _step_grid
+from .schemes import check_times, step_method, step_grid
 from .states import check_states, state_arrays
 
 __all__ = ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"]
@@ -46,8 +46,8 @@ def _states(q0, p0, n, value, params, batched):
 
 
 def _run_fixed(force, params, t, method, substeps, interval, q0s, p0s):
-    rk4, weights = _method(method)
-    order, ts, h, nsteps = _step_grid(t, substeps, interval)
+    rk4, weights = step_method(method)
+    order, ts, h, nsteps = step_grid(t, substeps, interval)
     n = params.shape[0]
     oq = np.empty((n, ts.size))
     op = np.empty((n, ts.size))
@@ -105,7 +105,7 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
         >>> round(float(q[1]), 6)  # exact: (1 - cos 2) / 2
         0.708073
     """
-    t = _check_times(t)
+    t = check_times(t)
     if isinstance(potential, BoundedPotential):
         q0s, p0s, _ = _states(q0, p0, potential.params.shape[0], _spline_kernels.bspline_value,
                               potential.params, potential.batched)
@@ -131,8 +131,8 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
                           else V0 - 0.5 * p0s**2)[0]
     if check_resolution:
         check_formula(potential, t, method, substeps, interval)
-    rk4, weights = _method(method)
-    order, ts, h, nsteps = _step_grid(t, substeps, interval)
+    rk4, weights = step_method(method)
+    order, ts, h, nsteps = step_grid(t, substeps, interval)
     oq = np.empty(ts.size)
     op = np.empty(ts.size)
 
@@ -222,7 +222,7 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
         >>> q.shape
         (100,)
     """
-    t = _check_times(t)
+    t = check_times(t)
     V = check_bounded(sensor_values(V))
     single = V.ndim == 1
     params = sensor_spline_params(np.atleast_2d(V), interpolation)

@@ -5,7 +5,7 @@ import numpy as np
 from .._constants import TIMES
 from ..potentials.bounded import BoundedPotential
 from . import _curve_kernels
-from .schemes import _check_times
+from .schemes import check_times
 from .states import check_states, state_arrays
 
 __all__ = ["reference_solve"]
@@ -47,7 +47,7 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
         >>> round(float(q[0]), 10), round(float(0.5 + np.sin(1.0) / 4), 10)
         (0.7103677462, 0.7103677462)
     """
-    t = _check_times(t)
+    t = check_times(t)
     order = np.argsort(t, kind="stable")
     ts = np.ascontiguousarray(t[order])
     if isinstance(potential, BoundedPotential):

@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 
 from .._constants import V0
-from .schemes import ORDERS, _method, _step_grid
+from .schemes import ORDERS, step_method, step_grid
 
 __all__ = ["ResolutionWarning", "STABILITY_LIMITS", "RESOLUTION_FRACTION", "ENERGY_DRIFT_TOL",
            "check_resolution_of", "check_energy", "check_formula", "spline_curvature",
@@ -81,15 +81,15 @@ def check_energy(drift, t, method, substeps, source, batched, name="V"):
 
 def check_resolution_of(curvature, t, method, substeps, interval, batched, name="V", level=3):
     """Warn if h·sqrt(max ``|V''|``) exceeds RESOLUTION_FRACTION of the stability limit."""
-    _method(method)
+    step_method(method)
     limit = RESOLUTION_FRACTION * STABILITY_LIMITS[method]
-    h, nsteps = _step_grid(t, substeps, interval)[2:]
+    h, nsteps = step_grid(t, substeps, interval)[2:]
     x = h * np.sqrt(np.asarray(curvature, dtype=np.float64))
     bad = np.flatnonzero(x > limit) if nsteps else np.array([], dtype=int)
     if bad.size:
         worst = bad[np.argmax(x[bad])]
         need = max(math.ceil(substeps * x[worst] / limit), substeps + 1)
-        while x[worst] / h * _step_grid(t, need, interval)[2] > limit:
+        while x[worst] / h * step_grid(t, need, interval)[2] > limit:
             need += 1
         warnings.warn(f"step h = {h:.4g} ({substeps} substep(s)) is too coarse for the "
                       f"curvature of {_rows(bad, batched, name)}: h·sqrt(max|V''|) = "

@@ -20,7 +20,7 @@ from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
 from . import _curve_fixed, _kernels, _orbit
 from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
-from .schemes import MAX_STEPS, ORDERS, _method
+from .schemes import MAX_STEPS, ORDERS, step_method
 
 __all__ = ["RESOLVED_STEP", "RowSource", "row_source", "solve_rows"]
 
@@ -153,7 +153,7 @@ def _one_grid(ts, substeps, interval):
 def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
     """Rows ``rows`` at ``substeps``; ``shared``: every row has work[0]'s times and
     interval[0] (one grid for the lockstep kernel, no rows to compare)."""
-    rk4, weights = _method(method)
+    rk4, weights = step_method(method)
     if shared:
         work = work[0]
         hs, nsteps = _one_grid(work, substeps, float(interval[0]))

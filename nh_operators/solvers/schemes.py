@@ -35,7 +35,22 @@ METHODS = {"rk4": None, "verlet": _VERLET, "yoshida4": _Y4, "yoshida6": _Y6, "yo
 ORDERS = {"rk4": 4, "verlet": 2, "yoshida4": 4, "yoshida6": 6, "yoshida8": 8}
 
 
-def _check_times(t):
+def check_times(t):
+    """The query times as a float64 vector, or a ValueError naming what is wrong.
+
+    Args:
+        t: times, (M,) or (M, 1), finite and ≥ 0.
+
+    Returns:
+        (M,) float64 array.
+
+    Raises:
+        ValueError: empty, not 1-D, or holding a negative or non-finite time.
+
+    Example:
+        >>> check_times([[0.0], [0.5]]).tolist()
+        [0.0, 0.5]
+    """
     t = np.asarray(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[1] == 1:
         t = t[:, 0]
@@ -46,12 +61,27 @@ def _check_times(t):
     return t
 
 
-#: The times check, for callers outside this module: (M,) float64, or a ValueError.
-check_times = _check_times
+def step_grid(t, substeps, interval):
+    """Sorted query times, step size and number of steps covering [0, max t].
 
+    Args:
+        t: (M,) float64 query times (see :func:`check_times`).
+        substeps: steps per ``interval`` (a positive integer).
+        interval: the spacing the steps refine; None: that of ``t`` when it is a uniform
+            grid from 0, else that of :data:`TIMES`.
 
-def _step_grid(t, substeps, interval):
-    """Sorted query times, step size and number of steps covering [0, max t]."""
+    Returns:
+        (order (M,) indices sorting ``t``, ts (M,) sorted times, h step size, nsteps).
+
+    Raises:
+        ValueError: a bad ``substeps`` or ``interval``, or more than :data:`MAX_STEPS`
+            steps.
+
+    Example:
+        >>> order, ts, h, nsteps = step_grid(np.array([1.0, 0.0, 0.5]), 2, None)
+        >>> order.tolist(), float(h), nsteps
+        ([1, 2, 0], 0.25, 4)
+    """
     if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
         raise ValueError(f"substeps must be a positive integer, got {substeps}")
     order = np.argsort(t, kind="stable")
@@ -75,7 +105,22 @@ def _step_grid(t, substeps, interval):
     return order, ts, h, nsteps
 
 
-def _method(method):
+def step_method(method):
+    """How a method steps: (classical RK4?, its Störmer–Verlet sub-step weights).
+
+    Args:
+        method: a key of :data:`METHODS`.
+
+    Returns:
+        (rk4 bool, weights (S,) float64; Verlet's ``[1.0]`` for RK4, unused there).
+
+    Raises:
+        ValueError: an unknown method.
+
+    Example:
+        >>> step_method("verlet")[0], step_method("yoshida4")[1].shape
+        (False, (3,))
+    """
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {sorted(METHODS)}")
     weights = METHODS[method]

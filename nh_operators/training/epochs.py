@@ -1,7 +1,7 @@
 """The state of a training run and the DeepXDE callback that ends each epoch.
 
-:class:`_Run` holds what :func:`~nh_operators.training.train` and its callback share;
-:class:`_EpochEnd` advances the data's cursor after every DeepXDE iteration and ends an
+:class:`TrainingRun` holds what :func:`~nh_operators.training.train` and its callback share;
+:class:`EpochEnd` advances the data's cursor after every DeepXDE iteration and ends an
 epoch with the validation pass, a history record, the checkpoint and the progress bar.
 In a distributed run (:class:`~nh_operators.training.distributed.Distributed`) every
 rank runs the same callback: the training loss of each iteration and the validation
@@ -42,7 +42,7 @@ def _set_rng_state(state, device):
         torch.cuda.set_rng_state(state["cuda"], device)
 
 
-class _EpochEnd(dde.callbacks.Callback):
+class EpochEnd(dde.callbacks.Callback):
     """Per-iteration bookkeeping and the end-of-epoch work (see :func:`train`)."""
 
     def __init__(self, run):
@@ -72,7 +72,7 @@ class _EpochEnd(dde.callbacks.Callback):
             run.end_epoch()
 
 
-class _Run:
+class TrainingRun:
     """State of one training run shared by :func:`train` and its callback."""
 
     def __init__(self, cfg, out, net, data, model, scheduler, dist, checksum,

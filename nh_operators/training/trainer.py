@@ -24,7 +24,7 @@ from .averaging import WeightAverage
 from .checkpoint import CHECKPOINT, load_checkpoint, network_from_config, write_config
 from .config import SCHEDULERS, TrainConfig, TrainingDiverged
 from .distributed import init_distributed
-from .epochs import _EpochEnd, _Run
+from .epochs import EpochEnd, TrainingRun
 from .losses import LOSSES
 
 if TYPE_CHECKING:  # only for the annotation: imported, it would load the generator
@@ -146,7 +146,7 @@ def _train(cfg, dist, data, out, resume, progress, epoch_callback, max_minutes,
             opt, cfg["upper_bound"], cfg["epochs"], cfg["infimum_lr"],
             steps_per_epoch=steps, per_epoch=cfg["scheduler_step"] == "epoch")
         model.lr_scheduler = scheduler
-        run = _Run(cfg, out, net, data_obj, model, scheduler, dist, checksum,
+        run = TrainingRun(cfg, out, net, data_obj, model, scheduler, dist, checksum,
                    progress, epoch_callback)
         run.max_seconds = None if max_minutes is None else 60.0 * max_minutes
         run.average = WeightAverage(net, cfg["ema"]) if cfg["ema"] else None
@@ -207,7 +207,7 @@ def _fit(model, run, iterations):
             _untimed(dde.Model.train)(model, iterations=iterations,
                                       batch_size=run.cfg["batch_size"],
                                       display_every=run.steps,
-                                      callbacks=[_EpochEnd(run)], verbose=0)
+                                      callbacks=[EpochEnd(run)], verbose=0)
     finally:
         dde.config.mixed = mixed
 

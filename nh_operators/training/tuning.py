@@ -45,8 +45,8 @@ from .tuning_spaces import (
 )
 from .tuning_study import (
     DEFAULT_STORAGE,
-    _best_trial,
-    _check_settings,
+    best_trial,
+    check_settings,
     best_config,
     open_storage,
     open_study,
@@ -225,7 +225,7 @@ class _Progress:
         if self.n_grid is not None and _grid_left(study.get_trials(deepcopy=False),
                                                   self.n_grid) <= 0:
             study.stop()  # every grid point is taken: start no extra trial
-        best = _best_trial(study)
+        best = best_trial(study)
         if self.out is not None and best is not None:
             write_best_config(study, self.out)
         if self.stream is None:
@@ -309,7 +309,7 @@ def tune(model, stage, data, *, n_trials=None, timeout=None, storage=DEFAULT_STO
         data = load_dataset(data)
     st = open_study(model, stage, storage=storage, space=space, study=study,
                     pruner=pruner, seed=seed)
-    _check_settings(st, {"model": model, "stage": stage, "space": resolved,
+    check_settings(st, {"model": model, "stage": stage, "space": resolved,
                          "epochs": epochs, "seeds": seeds, "base": base,
                          "data": data.checksum})
     n_grid = grid_size(resolved, model) if stage == "grid" else None

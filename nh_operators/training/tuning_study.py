@@ -148,7 +148,14 @@ def open_study(model, stage, *, storage=DEFAULT_STORAGE, space="cpu", study=None
                                direction="minimize", load_if_exists=True)
 
 
-def _best_trial(study):
+def best_trial(study):
+    """The completed trial of ``study`` with the lowest value, or None while none has
+    completed.
+
+    Example:
+        >>> best_trial(study).number  # doctest: +SKIP
+        7
+    """
     done = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
     return min(done, key=lambda t: t.value) if done else None
 
@@ -168,7 +175,7 @@ def best_config(study):
         >>> best_config(study)["lr"]  # doctest: +SKIP
         0.005933
     """
-    best = _best_trial(study)
+    best = best_trial(study)
     if best is None:
         return None
     settings = study.user_attrs.get(_SETTINGS, {})
@@ -206,7 +213,15 @@ def write_best_config(study, path):
     return config
 
 
-def _check_settings(study, settings):
+def check_settings(study, settings):
+    """Record ``settings`` (JSON-able) on a new ``study``, or check they match its own.
+
+    Raises:
+        ValueError: the study was started with other settings (the differing keys named).
+
+    Example:
+        >>> check_settings(study, {"model": "deeponet", "stage": "tpe"})  # doctest: +SKIP
+    """
     mine = json.loads(json.dumps(settings))
     theirs = study.user_attrs.get(_SETTINGS)
     if theirs is None:

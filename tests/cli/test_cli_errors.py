@@ -160,7 +160,7 @@ def test_ctrl_c_in_generate_says_what_was_kept_and_how_to_resume(tmp_path, capsy
                                                                  monkeypatch):
     import nh_operators.data.generate as generate_module
 
-    original, calls = generate_module._Source.take, {"n": 0}
+    original, calls = generate_module.SampleSource.take, {"n": 0}
 
     def interrupted(self, n, drops=None):
         calls["n"] += 1
@@ -168,7 +168,7 @@ def test_ctrl_c_in_generate_says_what_was_kept_and_how_to_resume(tmp_path, capsy
             raise KeyboardInterrupt
         return original(self, n, drops)
 
-    monkeypatch.setattr(generate_module._Source, "take", interrupted)
+    monkeypatch.setattr(generate_module.SampleSource, "take", interrupted)
     out = tmp_path / "c.h5"
     argv = ["generate", "--size", "30", "--seed", "2", "--chunk", "10", "--out", str(out),
             "--quiet"]
@@ -176,7 +176,7 @@ def test_ctrl_c_in_generate_says_what_was_kept_and_how_to_resume(tmp_path, capsy
     assert capsys.readouterr().err.strip() == (
         f"nh-operators generate: interrupted; 10 of 30 potentials kept in {out}.partial; "
         "run the same command again to resume")
-    monkeypatch.setattr(generate_module._Source, "take", original)
+    monkeypatch.setattr(generate_module.SampleSource, "take", original)
     assert main(argv) == 0
     assert generate_dataset(30, seed=2, progress=False).attrs["n_dropped"] == \
         nh.load_dataset(out).attrs["n_dropped"]

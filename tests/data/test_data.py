@@ -100,7 +100,7 @@ def test_resume_after_interruption_gives_identical_file(small, tmp_path, monkeyp
     import nh_operators.data.generate as data_mod
 
     calls = {"n": 0}
-    original = data_mod._Source.take
+    original = data_mod.SampleSource.take
 
     def flaky(self, n, drops=None):
         calls["n"] += 1
@@ -108,13 +108,13 @@ def test_resume_after_interruption_gives_identical_file(small, tmp_path, monkeyp
             raise KeyboardInterrupt
         return original(self, n, drops)
 
-    monkeypatch.setattr(data_mod._Source, "take", flaky)
+    monkeypatch.setattr(data_mod.SampleSource, "take", flaky)
     with pytest.raises(KeyboardInterrupt):
         generate_dataset(60, seed=5, path=target, chunk=25, progress=False)
     assert not target.exists()
     with h5py.File(str(target) + ".partial", "r") as f:
         assert int(f.attrs["rows_done"]) == 25
-    monkeypatch.setattr(data_mod._Source, "take", original)
+    monkeypatch.setattr(data_mod.SampleSource, "take", original)
     resumed = generate_dataset(60, seed=5, path=target, chunk=25, progress=False)
     np.testing.assert_array_equal(resumed.q, ds.q)
     assert resumed.attrs["checksum"] == ds.attrs["checksum"]
@@ -203,7 +203,7 @@ def test_batch_datasets_are_reproducible_resume_and_skip(tmp_path, monkeypatch):
     # an interrupted batch run resumes from its cursor to the same bytes
     import nh_operators.data.generate as generate_module
 
-    original, calls = generate_module._Source.take, {"n": 0}
+    original, calls = generate_module.SampleSource.take, {"n": 0}
 
     def flaky(self, n, drops=None):
         calls["n"] += 1
@@ -211,11 +211,11 @@ def test_batch_datasets_are_reproducible_resume_and_skip(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         return original(self, n, drops)
 
-    monkeypatch.setattr(generate_module._Source, "take", flaky)
+    monkeypatch.setattr(generate_module.SampleSource, "take", flaky)
     with pytest.raises(KeyboardInterrupt):
         generate_dataset(30, seed=9, skip=10, path=tmp_path / "r.h5", chunk=10,
                          progress=False, **kwargs)
-    monkeypatch.setattr(generate_module._Source, "take", original)
+    monkeypatch.setattr(generate_module.SampleSource, "take", original)
     resumed = generate_dataset(30, seed=9, skip=10, path=tmp_path / "r.h5", chunk=10,
                                progress=False, **kwargs)
     np.testing.assert_array_equal(resumed.V, whole.V[10:])

@@ -16,7 +16,7 @@ def _interrupt_after(monkeypatch, chunks):
     import nh_operators.data.generate as generate_module
 
     calls = {"n": 0}
-    original = generate_module._Source.take
+    original = generate_module.SampleSource.take
 
     def flaky(self, n, drops=None):
         calls["n"] += 1
@@ -24,7 +24,7 @@ def _interrupt_after(monkeypatch, chunks):
             raise KeyboardInterrupt
         return original(self, n, drops)
 
-    monkeypatch.setattr(generate_module._Source, "take", flaky)
+    monkeypatch.setattr(generate_module.SampleSource, "take", flaky)
     return original
 
 
@@ -33,12 +33,12 @@ def _interrupt_after(monkeypatch, chunks):
 _PAUSED_RUN = """
 import pathlib, sys, time
 import nh_operators.data.generate as generate_module
-take = generate_module._Source.take
+take = generate_module.SampleSource.take
 def paused(self, n, drops=None):
     while not pathlib.Path(sys.argv[1]).exists():
         time.sleep(0.02)
     return take(self, n, drops)
-generate_module._Source.take = paused
+generate_module.SampleSource.take = paused
 from nh_operators.cli import main
 sys.exit(main(sys.argv[2:]))
 """
@@ -81,7 +81,7 @@ def test_resume_verifies_kept_chunks_and_relabels_a_modified_one(tmp_path, monke
         f["V"][25, 0] += 0.01
     import nh_operators.data.generate as generate_module
 
-    monkeypatch.setattr(generate_module._Source, "take", original)
+    monkeypatch.setattr(generate_module.SampleSource, "take", original)
     with pytest.warns(UserWarning, match=r"rows 20-39 no longer match the checksum recorded "
                                          r"when they were written; labelling them again "
                                          r"from row 20"):
@@ -104,7 +104,7 @@ def test_resume_of_an_intact_partial_keeps_its_rows(tmp_path, monkeypatch):
         calls["n"] += 1
         return original(self, n, drops)
 
-    monkeypatch.setattr(generate_module._Source, "take", counting)
+    monkeypatch.setattr(generate_module.SampleSource, "take", counting)
     resumed = generate_dataset(60, seed=5, path=target, chunk=20, progress=False)
     assert calls["n"] == 1  # only the last chunk was labelled again
     np.testing.assert_array_equal(resumed.q, clean.q)

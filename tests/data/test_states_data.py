@@ -92,7 +92,7 @@ def test_an_interrupted_states_dataset_resumes_to_the_same_bytes(tmp_path, monke
 
     whole = generate_dataset(30, seed=6, path=tmp_path / "whole.h5", chunk=10,
                              progress=False, states="energy")
-    original, calls = generate_module._Source.take, {"n": 0}
+    original, calls = generate_module.SampleSource.take, {"n": 0}
 
     def interrupted(self, n, drops=None):
         calls["n"] += 1
@@ -100,11 +100,11 @@ def test_an_interrupted_states_dataset_resumes_to_the_same_bytes(tmp_path, monke
             raise KeyboardInterrupt
         return original(self, n, drops)
 
-    monkeypatch.setattr(generate_module._Source, "take", interrupted)
+    monkeypatch.setattr(generate_module.SampleSource, "take", interrupted)
     with pytest.raises(KeyboardInterrupt):
         generate_dataset(30, seed=6, path=tmp_path / "cut.h5", chunk=10, progress=False,
                          states="energy")
-    monkeypatch.setattr(generate_module._Source, "take", original)
+    monkeypatch.setattr(generate_module.SampleSource, "take", original)
     resumed = generate_dataset(30, seed=6, path=tmp_path / "cut.h5", chunk=10,
                                progress=False, states="energy")
     for name in ("q0", "p0", "near_separatrix", "q", "p"):

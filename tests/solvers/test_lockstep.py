@@ -9,7 +9,7 @@ from nh_operators.potentials import BoundedPotentialSpace
 from nh_operators.potentials._spline_kernels import grid_force
 from nh_operators.solvers import _kernels
 from nh_operators.solvers.fixed_step import sensor_spline_params
-from nh_operators.solvers.schemes import _method
+from nh_operators.solvers.schemes import step_method
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +19,7 @@ def params():
 
 
 def one_by_one(pars, tq, hs, nsteps, method, q0s, p0s):
-    rk4, weights = _method(method)
+    rk4, weights = step_method(method)
     oq, op = np.empty(tq.shape), np.empty(tq.shape)
     for i in range(len(pars)):
         _kernels._trajectory_fixed.py_func(grid_force.py_func, pars[i], tq[i], hs[i],
@@ -36,7 +36,7 @@ def test_lockstep_rows_equal_the_uncompiled_one_at_a_time_kernel(params, method,
     q0s, p0s = rng.uniform(0.3, 0.7, n), rng.uniform(-0.2, 0.2, n)
     tq = np.sort(np.r_[0.0, rng.uniform(0, 1.5, 20)])
     nsteps, h = 45, 1.5 / 45
-    rk4, weights = _method(method)
+    rk4, weights = step_method(method)
     oq, op = np.empty((n, tq.size)), np.empty((n, tq.size))
     _kernels.batch_fixed(grid_force, pars, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s)
     ref = one_by_one(pars, np.tile(tq, (n, 1)), np.full(n, h), np.full(n, nsteps), method,
@@ -55,7 +55,7 @@ def test_rows_with_their_own_grids_and_a_subset_of_rows(params):
     hs = tq[:, -1] / nsteps
     ref = one_by_one(params, tq, hs, nsteps, "rk4", q0s, p0s)
     rows = np.array([10, 2, 3, 7, 0, 5])
-    rk4, weights = _method("rk4")
+    rk4, weights = step_method("rk4")
     for grids in ("own", "shared"):
         if grids == "shared":  # every row on row 0's grid: the lockstep path
             tq, hs, nsteps = np.tile(tq[0], (n, 1)), np.full(n, hs[0]), np.full(n, nsteps[0])
