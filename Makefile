@@ -25,7 +25,7 @@ test-all: $(BIN)/.installed  ## also the slow checks
 
 lint: $(BIN)/.installed  ## ruff and pyright (basic) on the package, as CI runs them
 	$(BIN)/ruff check nh_operators
-	$(BIN)/basedpyright --pythonpath $(BIN)/python nh_operators
+	$(BIN)/basedpyright --project pyproject.toml --pythonpath $(BIN)/python nh_operators
 
 docs: $(BIN)/.installed  ## this site in docs/_build/html, warnings as errors; runs the tutorials (about a minute)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
