@@ -15,15 +15,15 @@ each wing loads when a name from it is first used, so a classical solve never lo
 
 from typing import TYPE_CHECKING
 
-from ._backend import select_pytorch_backend as _select_pytorch_backend
+from ._backend import select_pytorch_backend
 
-_select_pytorch_backend()
+select_pytorch_backend()
 
 from ._constants import SENSORS, TIMES, V0  # noqa: E402
-from ._lazy import attach as _attach  # noqa: E402
+from ._lazy import attach  # noqa: E402
 from ._version import __version__  # noqa: E402
 
-__getattr__, __dir__, _names = _attach(__name__, {
+__getattr__, __dir__, _names = attach(__name__, {
     "data": ["OperatorData", "generate_dataset", "load_dataset"],
     "evaluation": ["CLASSICAL_METHODS", "ClassicalMethod", "EvaluationSettings",
                    "NeuralMethod", "evaluate_methods", "extreme_potentials"],
@@ -74,4 +74,4 @@ __all__ = [
 if __all__[4:] != _names:
     raise ImportError("nh_operators.__all__ does not repeat the lazy export table: "
                       f"{sorted(set(__all__[4:]) ^ set(_names))}")
-del _attach, _names, _select_pytorch_backend
+del attach, _names, select_pytorch_backend

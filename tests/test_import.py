@@ -110,7 +110,8 @@ def test_top_level_exposes_no_private_name():
 
     assert [n for n in nh.__all__ if n.startswith("_") and not n.startswith("__")] == []
     # helpers used while importing are not left on the package
-    for name in ("_ensure_pytorch_backend", "_select_pytorch_backend", "_attach", "_names"):
+    for name in ("_ensure_pytorch_backend", "_select_pytorch_backend", "select_pytorch_backend",
+                 "attach", "_names"):
         assert not hasattr(nh, name), name
 
 

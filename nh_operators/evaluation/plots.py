@@ -10,7 +10,7 @@ Time is always shown with one colour map (:data:`CMAP`) and one colorbar labelle
 import numpy as np
 
 from .._constants import SENSORS, TIMES, V0
-from .._figures import new_figure as _figure
+from .._figures import new_figure
 
 __all__ = ["CMAP", "plot_trajectory", "plot_worst_sample", "plot_physical_potentials"]
 
@@ -125,7 +125,7 @@ def plot_trajectory(potential, t, q, p, q_pred=None, p_pred=None, *, title=None,
     p_pred = None if p_pred is None else _vector("p_pred", p_pred, t.size)
     if t.size < 2:
         raise ValueError(f"need at least 2 times, got {t.size}")
-    fig = _figure(figsize=(10, 7))
+    fig = new_figure(figsize=(10, 7))
     axes = fig.subplots(2, 2)
     norm = _time_norm(t)
     _draw_trajectory(axes.ravel(), potential, t, q, p, q_pred, p_pred, norm, label)
@@ -188,7 +188,7 @@ def plot_physical_potentials(potentials, trajectories, t=TIMES):
     missing = [n for n in names if n not in potentials]
     if missing:
         raise ValueError(f"no potential for {', '.join(missing)}")
-    fig = _figure(figsize=(3.2 * len(names) + 1, 10))
+    fig = new_figure(figsize=(3.2 * len(names) + 1, 10))
     axes = fig.subplots(4, len(names), squeeze=False)
     norm = _time_norm(t)
     for col, name in enumerate(names):

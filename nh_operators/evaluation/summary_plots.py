@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._figures import new_figure as _figure
+from .._figures import new_figure
 
 __all__ = ["log_bins", "plot_loss_histograms", "plot_work_precision"]
 
@@ -99,7 +99,7 @@ def plot_loss_histograms(losses, *, bins=40, title=None):
     # a ListedColormap: .colors is its list of RGB tuples (typed as any colour data)
     palette: Any = matplotlib.colormaps["tab10" if len(arrays) <= 10 else "tab20"]
     colours = palette.colors
-    fig = _figure(figsize=(10, 4.8))
+    fig = new_figure(figsize=(10, 4.8))
     ax = fig.subplots()
     for i, (name, v) in enumerate(arrays.items()):
         colour = colours[i % len(colours)]
@@ -173,7 +173,7 @@ def plot_work_precision(rows, *, title=None, x="seconds_per_trajectory"):
         raise ValueError(f"x must be one of {sorted(_X_AXES)}, got {x!r}")
     _check_rows(rows)
     xlabel, transform = _X_AXES[x]
-    fig = _figure(figsize=(8, 5.5))
+    fig = new_figure(figsize=(8, 5.5))
     ax = fig.subplots()
     logs = np.log10(transform(np.array([float(r["seconds"]) for r in rows])))
     middle = 0.5 * (logs.min() + logs.max())

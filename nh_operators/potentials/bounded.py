@@ -7,7 +7,8 @@ and V(q) < V0 for 0 < q < 1, so a particle released at rest at q = 0 stays in [0
 import numpy as np
 
 from .._constants import SENSORS, V0
-from . import _spline_kernels, bspline
+from . import bspline
+from ._spline_kernels import bspline_curvature, bspline_force, bspline_value, evaluate
 
 __all__ = ["BoundedPotential", "check_bounded"]
 
@@ -16,7 +17,7 @@ def _evaluate(fn, params, q):
     q = np.asarray(q, dtype=np.float64)
     flat = np.ascontiguousarray(q.reshape(-1))
     out = np.empty((params.shape[0], flat.size))
-    _spline_kernels.evaluate(fn, params, flat, out)
+    evaluate(fn, params, flat, out)
     return out
 
 
@@ -90,15 +91,15 @@ class BoundedPotential:
 
     def V(self, q):
         """V at points q (any shape); a batch returns shape (N,) + q.shape."""
-        return self._shape(_evaluate(_spline_kernels.bspline_value, self.params, q), q)
+        return self._shape(_evaluate(bspline_value, self.params, q), q)
 
     def dV(self, q):
         """dV/dq at points q, exact for the curve."""
-        return self._shape(-_evaluate(_spline_kernels.bspline_force, self.params, q), q)
+        return self._shape(-_evaluate(bspline_force, self.params, q), q)
 
     def d2V(self, q):
         """d²V/dq² at points q (continuous: the potentials are C²)."""
-        return self._shape(_evaluate(_spline_kernels.bspline_curvature, self.params, q), q)
+        return self._shape(_evaluate(bspline_curvature, self.params, q), q)
 
     def __repr__(self):
         n = "1" if self._single else str(self.params.shape[0])

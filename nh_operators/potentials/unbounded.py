@@ -18,7 +18,7 @@ free fall V = −4(q − 1/2), Q = 1/2, it gives P = 32q³ − 48q² + 20q − 2
 import numpy as np
 
 from .._constants import V0 as DEFAULT_V0
-from .coerce import CallablePotential as _Callable
+from .coerce import CallablePotential
 
 __all__ = ["ExtendedPotential", "extend_monotone"]
 
@@ -103,7 +103,7 @@ def extend_monotone(V, Q, dV=None, V0=DEFAULT_V0, *, d2V=None, name=None):
     name = name or getattr(V, "__name__", "V")
     name = "V" if name == "<lambda>" else name
     if dV is None:
-        dV = _Callable(V).dV  # the solver's fourth-order central difference
+        dV = CallablePotential(V).dV  # the solver's fourth-order central difference
 
     q = np.linspace(0.0, Q, _GRID)
     values = np.asarray(V(q), dtype=np.float64)

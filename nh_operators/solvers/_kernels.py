@@ -6,7 +6,7 @@ one-row kernels that call the force by the global name ``FORCE``, which the para
 kernels call in turn: all compiled once per force
 (:func:`~nh_operators.potentials._spline_kernels.specialised`) and cached on disk.
 The adaptive truth in the curve parameter lives in :mod:`._curve_kernels`. The same
-Python source also runs uncompiled (``_trajectory_fixed.py_func``) with a plain
+Python source also runs uncompiled (``trajectory_fixed.py_func``) with a plain
 Python force, which is how arbitrary user callables are integrated without a second copy
 of the steppers. The sensors' spline coefficients come from the one sensor-spline helper
 (:func:`nh_operators._sensors.notaknot_params`, re-exported here for the solvers).
@@ -32,7 +32,7 @@ def hermite(theta, h, y0, d0, y1, d1):
 
 
 @numba.njit(**JIT_FN_ARG)
-def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
+def trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
     """One trajectory from (q_start, p_start) with ``nsteps`` steps of size ``h``.
 
     ``tq`` holds sorted query times in [0, nsteps h]; results are cubic Hermite
@@ -83,7 +83,7 @@ def _trajectory_fixed(force, par, tq, h, nsteps, rk4, weights, oq, op, q_start, 
 
 #: Trajectories a kernel advances in lockstep. One trajectory is a chain of dependent
 #: force evaluations (each waits for the last); LANES independent chains let the CPU
-#: overlap them. Each lane does exactly the arithmetic of :func:`_trajectory_fixed`, so
+#: overlap them. Each lane does exactly the arithmetic of :func:`trajectory_fixed`, so
 #: the results are bit for bit the same.
 LANES = 4
 
@@ -159,7 +159,7 @@ def _lanes_fixed(force, pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s
 
 
 def _trajectory_row(par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start):
-    _trajectory_fixed(FORCE, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start)
+    trajectory_fixed(FORCE, par, tq, h, nsteps, rk4, weights, oq, op, q_start, p_start)
 
 
 def _lanes_row(pars, rows, lo, tq, h, nsteps, rk4, weights, oq, op, q0s, p0s):

@@ -17,9 +17,10 @@ import numpy as np
 
 from .._constants import SENSORS, TIMES, V0
 from .._sensors import sensor_values
-from ..potentials import _spline_kernels
+from ..potentials._spline_kernels import bspline_force, bspline_value, grid_force, grid_value
 from ..potentials.bounded import BoundedPotential, check_bounded
-from . import _kernels, _orbit
+from ._kernels import batch_fixed, notaknot_params, trajectory_fixed
+from ._orbit import pairwise
 from .resolution import (
     check_energy,
     check_formula,
@@ -27,7 +28,7 @@ from .resolution import (
     spline_curvature,
     spline_drift,
 )
-from .schemes import check_times, step_method, step_grid
+from .schemes import check_times, step_grid, step_method
 from .states import check_states, state_arrays
 
 __all__ = ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"]
@@ -39,7 +40,7 @@ def _states(q0, p0, n, value, params, batched):
 
     def value_at(x):
         out = np.empty(n)
-        _orbit.pairwise(value, params, np.ascontiguousarray(x), out)
+        pairwise(value, params, np.ascontiguousarray(x), out)
         return out
 
     return q0s, p0s, check_states(q0s, p0s, value_at, batched)
@@ -51,7 +52,7 @@ def _run_fixed(force, params, t, method, substeps, interval, q0s, p0s):
     n = params.shape[0]
     oq = np.empty((n, ts.size))
     op = np.empty((n, ts.size))
-    _kernels.batch_fixed(force, params, ts, h, nsteps, rk4, weights, oq, op, q0s, p0s)
+    batch_fixed(force, params, ts, h, nsteps, rk4, weights, oq, op, q0s, p0s)
     q = np.empty_like(oq)
     p = np.empty_like(op)
     q[:, order] = oq
@@ -107,9 +108,9 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
     """
     t = check_times(t)
     if isinstance(potential, BoundedPotential):
-        q0s, p0s, _ = _states(q0, p0, potential.params.shape[0], _spline_kernels.bspline_value,
+        q0s, p0s, _ = _states(q0, p0, potential.params.shape[0], bspline_value,
                               potential.params, potential.batched)
-        q, p = _run_fixed(_spline_kernels.bspline_force, potential.params, t, method, substeps,
+        q, p = _run_fixed(bspline_force, potential.params, t, method, substeps,
                           interval, q0s, p0s)
         if check_resolution:
             curvature = np.abs(potential.d2V(SENSORS)).reshape(-1, SENSORS.size).max(axis=1)
@@ -139,8 +140,8 @@ def integrate(potential, t=TIMES, method="rk4", substeps=1, *, interval=None,
     def force(_params, x):
         return -float(potential.dV(x))
 
-    _kernels._trajectory_fixed.py_func(force, None, ts, h, nsteps, rk4, weights, oq, op,
-                                       q0s[0], p0s[0])
+    trajectory_fixed.py_func(force, None, ts, h, nsteps, rk4, weights, oq, op,
+                             q0s[0], p0s[0])
     q = np.empty_like(oq)
     p = np.empty_like(op)
     q[order] = oq
@@ -174,7 +175,7 @@ def sensor_spline_params(V, interpolation="cubic"):
     if interpolation == "cubic":  # compiled, row by row: ~3 µs for one potential
         V = np.ascontiguousarray(V, dtype=np.float64)
         out = np.empty((V.shape[0], 4 * (V.shape[1] - 1)))
-        _kernels.notaknot_params(V, out)
+        notaknot_params(V, out)
         return out
     if interpolation == "pchip":
         from scipy.interpolate import PchipInterpolator  # only here: a slow import
@@ -226,11 +227,11 @@ def integrate_sensors(V, t=TIMES, method="rk4", substeps=1, interpolation="cubic
     V = check_bounded(sensor_values(V))
     single = V.ndim == 1
     params = sensor_spline_params(np.atleast_2d(V), interpolation)
-    q0s, p0s, energy = _states(q0, p0, params.shape[0], _spline_kernels.grid_value, params,
+    q0s, p0s, energy = _states(q0, p0, params.shape[0], grid_value, params,
                                not single)
     if check_resolution:
         check_resolution_of(spline_curvature(params), t, method, substeps, interval, not single)
-    q, p = _run_fixed(_spline_kernels.grid_force, params, t, method, substeps, interval,
+    q, p = _run_fixed(grid_force, params, t, method, substeps, interval,
                       q0s, p0s)
     if check_resolution:
         last = int(np.argmax(t))

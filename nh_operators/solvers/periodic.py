@@ -28,7 +28,8 @@ import math
 import numpy as np
 
 from .._constants import TIMES
-from . import _orbit, _reduce
+from ._orbit import BARRIER, NOT_CONVERGED, batch_orbit_period, orbit_period
+from ._reduce import BEYOND, LOOSE_FAR, plan_rows
 
 __all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError", "orbit_periods", "plan_horizon"]
 
@@ -43,9 +44,9 @@ _LOOSE = 1e-8
 #: quadrature aims for it (then the solve keeps (1 - sqrt(1/400))² = 90 % of tol).
 PHASE_SHARE = 1.0 / 400.0
 
-_FAILURES = {_orbit.NOT_CONVERGED: "its period quadrature did not converge",
-             _orbit.BARRIER: "it turns around where V' (almost) vanishes, or V reaches the "
-                             "energy between its turning points"}
+_FAILURES = {NOT_CONVERGED: "its period quadrature did not converge",
+             BARRIER: "it turns around where V' (almost) vanishes, or V reaches the "
+                      "energy between its turning points"}
 
 
 class PeriodError(ValueError):
@@ -78,12 +79,12 @@ def orbit_periods(src, rows, q0s, p0s, rate=None):
     status = np.empty(rows.size, dtype=np.int64)
     rate = np.zeros(rows.size) if rate is None else np.ascontiguousarray(rate, np.float64)
     if src.compiled:
-        _orbit.batch_orbit_period(src.value, src.force, src.params, rows, q0s, p0s, rate,
-                                  out, status)
+        batch_orbit_period(src.value, src.force, src.params, rows, q0s, p0s, rate,
+                           out, status)
     else:
         for k, i in enumerate(rows):
-            status[k] = _orbit.orbit_period(src.value, src.force, src.params[0], q0s[i],
-                                            p0s[i], rate[k], out[k])
+            status[k] = orbit_period(src.value, src.force, src.params[0], q0s[i],
+                                     p0s[i], rate[k], out[k])
     return out, status
 
 
@@ -124,9 +125,9 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
     column[:] = np.arange(m + 1)  # rows without a period keep their (sorted) order
     shifts = np.zeros((n, m))
     verdict = np.empty(need.size, dtype=np.int64)
-    _reduce.plan_rows(np.ascontiguousarray(ts), tols, need, out, status, _LOOSE,
-                      DIRECT_HORIZON, work, column, shifts, phase, period, periodic, verdict)
-    if verdict.max() >= _reduce.BEYOND:
+    plan_rows(np.ascontiguousarray(ts), tols, need, out, status, _LOOSE,
+              DIRECT_HORIZON, work, column, shifts, phase, period, periodic, verdict)
+    if verdict.max() >= BEYOND:
         _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched)
     return {"work": work, "column": column, "periodic": periodic, "period": period,
             "phase": phase, "shift": shifts, "dT": out[:, 1], "need": need,
@@ -136,7 +137,7 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
 def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
     """Raise for the first row that cannot be answered (a verdict of BEYOND first)."""
     T, dT, _, _, S, energy, peak = out.T
-    beyond = np.flatnonzero(verdict == _reduce.BEYOND)
+    beyond = np.flatnonzero(verdict == BEYOND)
     if beyond.size:
         k = beyond[0]
         tmax = ts[need[k], -1]
@@ -148,10 +149,10 @@ def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
             f"the spacing of float64 numbers there is {ulp:.3g}, which at speeds up to "
             f"{math.sqrt(S[k]):.3g} moves the state by {math.sqrt(S[k]) * ulp:.3g} (L_tot "
             f"{rounding:.3g}), more than tol {tols[need[k]]:g} allows")
-    k = int(np.flatnonzero(verdict >= _reduce.LOOSE_FAR)[0])
+    k = int(np.flatnonzero(verdict >= LOOSE_FAR)[0])
     i = need[k]
     orbit = f"the orbit from (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}), energy {energy[k]:.10g}"
-    if verdict[k] == _reduce.LOOSE_FAR:
+    if verdict[k] == LOOSE_FAR:
         raise PeriodError(
             f"{_where(batched, i)}the period T = {T[k]:.6g} of {orbit}, is only known to "
             f"±{dT[k]:.2g}: it passes near q = {peak[k]:.6g} at almost zero speed, close "

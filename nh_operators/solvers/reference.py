@@ -4,7 +4,7 @@ import numpy as np
 
 from .._constants import TIMES
 from ..potentials.bounded import BoundedPotential
-from . import _curve_kernels
+from ._curve_kernels import batch_dp5, curve_starts
 from .schemes import check_times
 from .states import check_states, state_arrays
 
@@ -54,12 +54,12 @@ def reference_solve(potential, t=TIMES, *, q0=0.0, p0=0.0, rtol=1e-15, atol=1e-1
         n = potential.params.shape[0]
         q0s, p0s = state_arrays(q0, p0, n)
         lam0s, v0s = np.empty(n), np.empty(n)
-        _curve_kernels.curve_starts(potential.params, q0s, lam0s, v0s)
+        curve_starts(potential.params, q0s, lam0s, v0s)
         start = check_states(q0s, p0s, lambda _: v0s, potential.batched)
         oq, op, ov = (np.empty((n, ts.size)) for _ in range(3))
         steps = np.empty(n, dtype=np.int64)
-        _curve_kernels.batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps,
-                           lam0s, p0s)
+        batch_dp5(potential.params, ts, rtol, atol, max_steps, oq, op, ov, steps,
+            lam0s, p0s)
         energy = np.max(np.abs(ov - start[:, None]), axis=1)
     elif hasattr(potential, "dV"):
         q0s, p0s = state_arrays(q0, p0, 1)

@@ -15,10 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._constants import TIMES
-from ..potentials import _spline_kernels
+from ..potentials._spline_kernels import bspline_force, bspline_value, grid_force, grid_value
 from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
-from . import _curve_fixed, _kernels, _orbit
+from ._curve_fixed import curve_rows_fixed
+from ._kernels import level_gap, rows_fixed, trajectory_fixed
+from ._orbit import rowwise
 from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
 from .schemes import MAX_STEPS, ORDERS, step_method
 
@@ -65,7 +67,7 @@ class RowSource:
         flat = x.reshape(x.shape[0], -1)
         out = np.empty(flat.shape)
         if self.compiled and params.shape[0] in (1, flat.shape[0]):
-            _orbit.rowwise(fn, params, np.ascontiguousarray(flat), out)
+            rowwise(fn, params, np.ascontiguousarray(flat), out)
         else:
             for i in range(flat.shape[0]):
                 for j in range(flat.shape[1]):
@@ -98,9 +100,9 @@ def row_source(pot, information):
         pot, information = as_potential(pot)
     if information == "sensors":
         params = sensor_spline_params(np.atleast_2d(np.asarray(pot, dtype=np.float64)))
-        return RowSource(_spline_kernels.grid_force, _spline_kernels.grid_value, params, True)
+        return RowSource(grid_force, grid_value, params, True)
     if isinstance(pot, BoundedPotential):
-        return RowSource(_spline_kernels.bspline_force, _spline_kernels.bspline_value,
+        return RowSource(bspline_force, bspline_value,
                          pot.params, True, curve=True)
     if isinstance(pot, np.ndarray):
         raise ValueError(f"an array of sensor values needs information 'sensors', got "
@@ -162,18 +164,18 @@ def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
     oq = np.empty((rows.size, work.shape[-1]))
     op = np.empty_like(oq)
     if src.curve and rk4:
-        _curve_fixed.curve_rows_fixed(src.params, rows, work, hs, nsteps, oq, op, q0s, p0s)
+        curve_rows_fixed(src.params, rows, work, hs, nsteps, oq, op, q0s, p0s)
     elif src.compiled:
-        _kernels.rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
-                            oq, op, q0s, p0s)
+        rows_fixed(src.force, src.params, rows, work, hs, nsteps, rk4, weights,
+                   oq, op, q0s, p0s)
     else:
         for k, i in enumerate(rows):
             # shared: one grid (Python scalars) for every row; else row i's (arrays)
             row = ((work[i], hs[i], nsteps[i])
                    if isinstance(hs, np.ndarray) and isinstance(nsteps, np.ndarray)
                    else (work, hs, nsteps))
-            _kernels._trajectory_fixed.py_func(src.force, src.params[0], *row, rk4,
-                                               weights, oq[k], op[k], q0s[i], p0s[i])
+            trajectory_fixed.py_func(src.force, src.params[0], *row, rk4,
+                                     weights, oq[k], op[k], q0s[i], p0s[i])
     return oq, op
 
 
@@ -247,8 +249,8 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
     while rows.size:
         q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method,
                         shared)
-        raw = _kernels.level_gap(q, p, q2, p2, weight if weight.shape[0] == 1 else
-                                 weight[rows])
+        raw = level_gap(q, p, q2, p2, weight if weight.shape[0] == 1 else
+                        weight[rows])
         substeps *= 2
         # the gap to the previous level, and the one before it shrunk at the method's
         # rate: a coarse pair that agreed by chance does not hide the error (the first

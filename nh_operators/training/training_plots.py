@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._figures import new_figure as _figure
+from .._figures import new_figure
 
 __all__ = ["read_history", "plot_training_curves", "minutes_to_reach"]
 
@@ -48,7 +48,7 @@ def plot_training_curves(runs, *, title=None, goals=None):
     if not runs:
         raise ValueError("no runs to plot")
     many = len(runs) > 4
-    fig = _figure(figsize=(10, 4.5) if many else (7, 4.5))
+    fig = new_figure(figsize=(10, 4.5) if many else (7, 4.5))
     ax = fig.subplots()
     for i, (label, run) in enumerate(runs.items()):
         h = run if isinstance(run, dict) else read_history(run)

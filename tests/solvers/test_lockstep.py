@@ -22,7 +22,7 @@ def one_by_one(pars, tq, hs, nsteps, method, q0s, p0s):
     rk4, weights = step_method(method)
     oq, op = np.empty(tq.shape), np.empty(tq.shape)
     for i in range(len(pars)):
-        _kernels._trajectory_fixed.py_func(grid_force.py_func, pars[i], tq[i], hs[i],
+        _kernels.trajectory_fixed.py_func(grid_force.py_func, pars[i], tq[i], hs[i],
                                            nsteps[i], rk4, weights, oq[i], op[i], q0s[i],
                                            p0s[i])
     return oq, op
