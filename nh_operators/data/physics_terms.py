@@ -24,7 +24,8 @@ from collections.abc import Callable
 
 import numpy as np
 import torch
-from scipy.interpolate import CubicSpline
+
+from ..models.readout import not_a_knot_matrix
 
 __all__ = ["SensorSpline", "state_transform", "time_derivative"]
 
@@ -32,11 +33,12 @@ __all__ = ["SensorSpline", "state_transform", "time_derivative"]
 class SensorSpline:
     """The not-a-knot cubic spline of sensor values on uniform knots, in torch.
 
-    The spline is linear in the values: its slopes at the knots are D · V for one
-    (m × m) matrix D, computed once in float64 with SciPy. A batch of potentials is then
-    splined by one matrix product, and evaluation at predicted positions is a cubic
-    Hermite piece per point, differentiable in q (the gradient reaches the network).
-    Outside the knots the end pieces are extended.
+    The spline is linear in the values: its second derivatives at the knots are S · V for
+    the (m × m) map S of :func:`~nh_operators.models.readout.not_a_knot_matrix` (the one
+    the networks' read-outs use). A batch of potentials is then splined by one matrix
+    product, and evaluation at predicted positions is one cubic piece per point,
+    differentiable in q (the gradient reaches the network). Outside the knots the end
+    pieces are extended.
 
     Args:
         knots: (m,) uniformly spaced, increasing knots, m ≥ 4 (e.g.
@@ -66,8 +68,7 @@ class SensorSpline:
         self.x0 = float(knots[0])
         self.h = float(h[0])
         self.m = knots.size
-        slopes = CubicSpline(knots, np.eye(knots.size), axis=0).derivative()(knots)
-        self.slopes = torch.as_tensor(slopes)  # (m, m): slope at knot i of value j
+        self.moments = torch.as_tensor(not_a_knot_matrix(self.m, self.h))  # V'' = S V
 
     def __call__(self, V: torch.Tensor, q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """The splines of the rows of V, and their derivatives, at positions q.
@@ -86,17 +87,16 @@ class SensorSpline:
             raise ValueError(f"V must be (B, {self.m}) and q (B, M), got {tuple(V.shape)} "
                              f"and {tuple(q.shape)}")
         q = q.to(V.dtype)
-        d = V @ self.slopes.to(device=V.device, dtype=V.dtype).T  # (B, m)
+        second = V @ self.moments.to(device=V.device, dtype=V.dtype).T  # (B, m)
         piece = torch.floor((q.detach() - self.x0) / self.h).long().clamp(0, self.m - 2)
         y0, y1 = V.gather(1, piece), V.gather(1, piece + 1)
-        d0, d1 = d.gather(1, piece), d.gather(1, piece + 1)
+        m0, m1 = second.gather(1, piece), second.gather(1, piece + 1)
         h = self.h
-        s = q - (self.x0 + piece.to(q.dtype) * h)
-        slope = (y1 - y0) / h
-        c2 = (3 * slope - 2 * d0 - d1) / h
-        c3 = (d0 + d1 - 2 * slope) / h**2
-        value = y0 + s * (d0 + s * (c2 + s * c3))
-        return value, d0 + s * (2 * c2 + 3 * s * c3)
+        u = (q - self.x0) / h - piece.to(q.dtype)  # position in the piece, 0 to 1 inside
+        v = 1 - u
+        value = v * y0 + u * y1 + h**2 / 6 * ((v**3 - v) * m0 + (u**3 - u) * m1)
+        slope = (y1 - y0) / h + h / 6 * ((1 - 3 * v**2) * m0 + (3 * u**2 - 1) * m1)
+        return value, slope
 
 
 def state_transform(n_sensors: int, initial_state: bool = False
