@@ -36,7 +36,6 @@ PhaseONet forward at batch 1 took 11–15 ms instead of 0.3 ms, RK4 ×1 at batch
 
 import argparse
 import statistics
-import time
 import warnings
 
 import numba
@@ -44,6 +43,7 @@ import numpy as np
 import torch
 
 import nh_operators as nh
+from nh_operators.evaluation import time_call
 from nh_operators.potentials import BoundedPotentialSpace
 from nh_operators.solvers import METHODS
 from nh_operators.solvers import rows as rows_mod
@@ -56,13 +56,8 @@ NETWORKS = ("phaseonet-alg1", "phaseonet-alg1-quadrature", "deeponet-alg1")
 
 
 def median_time(fn, repeats: int) -> float:
-    """Median wall time of ``repeats`` calls of ``fn`` (seconds)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    """Median wall time of ``repeats`` calls of ``fn`` (seconds, no warm-up call)."""
+    return statistics.median(time_call(fn, repeats=repeats, warmup=0))
 
 
 def formulas(n: int, seed: int = 3) -> list[str]:

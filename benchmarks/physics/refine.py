@@ -24,13 +24,13 @@ Run it (one thread)::
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
 import torch
 
 import nh_operators as nh
+from nh_operators.evaluation import loss_per_sample, time_call
 from nh_operators.potentials import ood_potentials
 from nh_operators.training import load_model
 
@@ -43,16 +43,11 @@ def network(name: str) -> tuple[str, torch.nn.Module]:
 
 
 def l_tot(q: np.ndarray, p: np.ndarray, ref: tuple[np.ndarray, np.ndarray]) -> float:
-    return float(0.5 * (np.mean((q - ref[0]) ** 2) + np.mean((p - ref[1]) ** 2)))
+    return float(loss_per_sample(q, p, ref[0], ref[1])["L_tot"])
 
 
 def best_time(call, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        call()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return min(time_call(call, repeats=repeat, warmup=0))
 
 
 def row(label: str, potential, net: torch.nn.Module, args: argparse.Namespace) -> dict:
