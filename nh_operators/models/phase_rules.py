@@ -129,6 +129,8 @@ class RestQuadrature(Float64Buffers):
         self.constant("weights", w)
         self.constant("jacobian", jacobian)
         self.constant("period_weights", 2 * (jacobian * w))
+        # the compiled inversion's tables depend on the rule alone: built once, in float64
+        self.edges = edge_tables(np.asarray(s, np.float64), np.asarray(w, np.float64))
 
     def _squared_speed(self, V: torch.Tensor) -> torch.Tensor:
         """p² = 2 (V0 − V) at the nodes, (B, nodes), clamped at 2e-12."""
@@ -162,7 +164,7 @@ class RestQuadrature(Float64Buffers):
         f = self.jacobian * torch.rsqrt_(self._squared_speed(V))
         T = 2 * (f @ w)
         if V.device.type == "cpu" and not (torch.is_grad_enabled() and V.requires_grad):
-            ends, cos_e, sin_e, gaps = edge_tables(s.numpy(), w.numpy())
+            ends, cos_e, sin_e, gaps = self.edges
             invert = invert_rows_parallel if (V.shape[0] >= PARALLEL_FROM and
                                               numba.get_num_threads() > 1) else invert_rows
             Q, P = (torch.from_numpy(a) for a in invert(
