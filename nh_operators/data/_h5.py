@@ -4,7 +4,8 @@ import hashlib
 import json
 import os
 import warnings
-from typing import cast
+from collections.abc import Mapping
+from typing import Any, cast
 
 import h5py
 import numpy as np
@@ -90,9 +91,10 @@ def checksum(h5file):
 
     Only the arrays enter it: no attribute (package version, generator parameters, drops),
     so a dataset keeps its checksum across package versions as long as its bytes are the
-    same. The bytes' last bits depend on the OpenBLAS kernel numpy picks for the CPU (the
-    generator's Gaussian draw calls ``np.linalg.cholesky``), so the same command can give
-    another checksum on another CPU (``tests/data/test_checksum.py`` pins one kernel).
+    same. From draw 2 (``generator["draw"]``) the generator's Gaussian draw runs in plain
+    loops, so the same preset, seed and size give the same bytes, and this checksum, on
+    any CPU (``tests/data/test_checksum.py`` pins one); files of draw 1 (no ``draw``
+    key) went through ``np.linalg.cholesky``, whose last bits depend on the CPU.
     """
     digest = hashlib.sha256()
     for name in FIXED + tuple(_rows("states" in h5file.attrs)):
@@ -121,6 +123,41 @@ def _get_attrs(f):
         elif isinstance(value, np.generic):
             value = value.item()
         out[key] = value
+    return out
+
+
+def attrs_of(f: h5py.File) -> dict[str, Any]:
+    """The attributes of an open dataset file, JSON ones decoded.
+
+    Args:
+        f: an open dataset file.
+
+    Returns:
+        dict of the attributes (``generator``, ``dropped`` and ``states`` as dicts).
+    """
+    return _get_attrs(f)
+
+
+def generator_of(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The generator that made a dataset, from its attributes, with its draw version.
+
+    Files written before draw 2 record no ``draw``: they were made by draw 1 (BLAS
+    Cholesky, whose last bits depend on the CPU), and the result says so.
+
+    Args:
+        attrs: a dataset's attributes (:attr:`Dataset.attrs`, ``dataset_attrs(path)``).
+
+    Returns:
+        The ``generator`` attribute (parameters) with ``draw`` (1 when absent) and
+        ``package``, the nh-operators version that wrote the file (None if unrecorded).
+
+    Example:
+        >>> generator_of({"generator": {"omega": 0.05}, "version": "0.1.0"})
+        {'omega': 0.05, 'draw': 1, 'package': '0.1.0'}
+    """
+    out = dict(attrs.get("generator") or {})
+    out.setdefault("draw", 1)
+    out["package"] = attrs.get("version")
     return out
 
 

@@ -15,12 +15,13 @@ from .._constants import V0
 from .._dataset_presets import DATASET_PRESETS
 from .._version import __version__
 from ..potentials import BoundedPotential, BoundedPotentialSpace
-from ._h5 import read_dataset, write_streamed
+from ..potentials.gaussian import DRAW_VERSION, DRAW_VERSIONS
+from ._h5 import generator_of, read_dataset, write_streamed
 from .labels import ENERGY_TOL, LABEL_RTOL, StateStream, SampleSource, label_potentials
 
-__all__ = ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset",
-           "label_potentials", "load_dataset", "preset_kwargs"]
-
+__all__ = ["DATASET_PRESETS", "Dataset", "check_output_path", "checksum_mismatch",
+           "describe_draw", "generate_dataset", "generator_of", "label_potentials",
+           "load_dataset", "preset_kwargs"]
 
 
 def preset_kwargs(name: str) -> dict[str, Any]:
@@ -33,6 +34,57 @@ def preset_kwargs(name: str) -> dict[str, Any]:
     if name not in DATASET_PRESETS:
         raise ValueError(f"unknown preset {name!r}; choose from {sorted(DATASET_PRESETS)}")
     return {k: v for k, v in DATASET_PRESETS[name].items() if k not in ("size", "seed")}
+
+
+def describe_draw(draw: int) -> str:
+    """One line on a draw version: what computed the Gaussian values.
+
+    Example:
+        >>> describe_draw(1)
+        'draw 1 (np.exp and BLAS Cholesky: last bits depend on the CPU)'
+    """
+    return f"draw {draw} ({DRAW_VERSIONS.get(draw, 'unknown to this version')})"
+
+
+def checksum_mismatch(what: str, recorded: str, dataset: Any,
+                      recorded_draw: int | None = None) -> str:
+    """The message for a dataset whose checksum is not the one a record expects.
+
+    It names the draw that made the recorded dataset (``recorded_draw``; a record
+    without one predates draw 2, so draw 1), the draw that made ``dataset`` and the
+    draw this version uses, and what to do about it.
+
+    Args:
+        what: what the record is, e.g. ``"the dataset phaseonet-paper was calibrated on"``.
+        recorded: the checksum the record holds.
+        dataset: the dataset at hand (a :class:`Dataset`).
+        recorded_draw: the draw version the record names, or None if it names none.
+
+    Returns:
+        The message (several sentences).
+    """
+    ours = generator_of(dataset.attrs)
+    then = 1 if recorded_draw is None else int(recorded_draw)
+    lines = [f"this is not {what}: checksum {dataset.checksum}, recorded {recorded}.",
+             f"The recorded dataset was made by {describe_draw(then)}"
+             + (" (the record names no draw: it predates draw 2)."
+                if recorded_draw is None else "."),
+             f"This file was made by {describe_draw(ours['draw'])} with nh-operators "
+             f"{ours['package']}; this version ({__version__}) draws with draw "
+             f"{DRAW_VERSION}."]
+    if then != ours["draw"]:
+        lines.append("Another draw gives other last bits (up to about 1e-13) of the "
+                     "same potentials, so another checksum: use the record's file, or "
+                     "redo what the record measured on this one.")
+    elif then == 1:
+        lines.append("Draw 1's bits depend on the CPU's BLAS kernel: the same command on "
+                     "another machine gives another checksum; regenerating with this "
+                     f"version (draw {DRAW_VERSION}) gives the same bytes on any CPU.")
+    else:
+        lines.append("Same draw: the file was made with other parameters, seed or size, "
+                     "or was modified.")
+    return " ".join(lines)
+
 
 class Dataset:
     """Potentials at the sensors, exact labels, and what rebuilds each true potential.
@@ -71,6 +123,13 @@ class Dataset:
     @property
     def seed(self) -> int:
         return int(self.attrs["seed"])
+
+    @property
+    def generator(self) -> dict[str, Any]:
+        """The generator that made it (:func:`generator_of`): its parameters, ``draw``
+        (the Gaussian draw's version; 1 for files that predate draw 2) and ``package``
+        (the nh-operators version that wrote it)."""
+        return generator_of(self.attrs)
 
     @property
     def checksum(self) -> str:

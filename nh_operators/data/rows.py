@@ -16,7 +16,7 @@ from typing import final
 import h5py
 import numpy as np
 
-from ._h5 import FORMAT, checksum, h5_array, int_attr
+from ._h5 import FORMAT, attrs_of, checksum, generator_of, h5_array, int_attr
 
 __all__ = ["H5Rows", "MemoryRows", "Rows", "open_rows", "split_indices"]
 
@@ -58,6 +58,8 @@ class Rows(abc.ABC):
         t: (M,) query times of the labels.
         seed: the dataset's seed (the default split seed).
         checksum: the dataset's checksum (checkpoints record it).
+        generator: the generator that made it, with its ``draw`` version (1 for files
+            that predate draw 2; :func:`~nh_operators.data.generate.generator_of`).
         states: whether each row starts from its own (q0, p0); then the V that
             :meth:`read` returns holds the sensors followed by q0 and p0, (k, m + 2).
     """
@@ -65,6 +67,7 @@ class Rows(abc.ABC):
     t: np.ndarray
     seed: int
     checksum: str | None
+    generator: dict
     states: bool = False
 
     @abc.abstractmethod
@@ -123,6 +126,7 @@ class MemoryRows(Rows):
         self.t = np.asarray(dataset.t)
         self.seed = dataset.seed
         self.checksum = dataset.checksum
+        self.generator = dict(getattr(dataset, "generator", None) or {"draw": 1})
 
     def __len__(self):
         return len(self.dataset)
@@ -180,6 +184,7 @@ class H5Rows(Rows):
             self.t = np.asarray(h5_array(f, "t")[()])
             self.states = "states" in f.attrs
             self.seed = int_attr(f, "seed")
+            self.generator = generator_of(attrs_of(f))
             self._n = h5_array(f, "V").shape[0]
 
     def __len__(self):

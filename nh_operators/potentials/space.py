@@ -8,6 +8,7 @@ from .._backend import ensure_pytorch_backend
 from .._constants import V0
 from .bounded import BoundedPotential
 from .bspline import MAX_CONTROL
+from .gaussian import DRAW_VERSION, grf_values
 
 _dde: Any = ensure_pytorch_backend()  # deepxde ships no type information
 FunctionSpace = _dde.data.function_spaces.FunctionSpace
@@ -49,7 +50,10 @@ class BoundedPotentialSpace(FunctionSpace):
 
     1. n_GRF ~ uniform on {n_min, ..., n_max} and a length scale l ~ U(l_min, l_max);
     2. X ~ N(0, K) with the squared-exponential kernel
-       K_ij = exp(-(y_i - y_j)² / (2 l²)) at y_i = i / (n_GRF + 1);
+       K_ij = exp(-(y_i - y_j)² / (2 l²)) at y_i = i / (n_GRF + 1), as X = L z with L
+       the Cholesky factor of K, computed in plain loops
+       (:mod:`~nh_operators.potentials.gaussian`), so the same seed gives the same bits
+       on any CPU;
     3. X is normalised to control values V_i; the paper maps min X to V0 and max X to
        -V0, which puts one interior control value exactly at V0. Then V'(0) = 0 when
        that value is V_1, and with n_GRF = 2 the particle never moves. Here the
@@ -153,9 +157,11 @@ class BoundedPotentialSpace(FunctionSpace):
         return self._rng
 
     def params(self):
-        """The generator parameters, as stored with a dataset."""
+        """The generator parameters, as stored with a dataset (``draw``: the version of
+        the Gaussian draw, :data:`~nh_operators.potentials.gaussian.DRAW_VERSION`)."""
         params = {"n_grf": list(self.n_grf), "length_scale": list(self.length_scale),
-                  "omega": self.omega, "margin": self.margin, "V0": V0, "L": 1.0}
+                  "omega": self.omega, "margin": self.margin, "V0": V0, "L": 1.0,
+                  "draw": DRAW_VERSION}
         if self.normalization == "batch":  # stored only when not Algorithm 1's default
             params.update(normalization="batch", pool=self.pool)
         return params
@@ -177,9 +183,9 @@ class BoundedPotentialSpace(FunctionSpace):
         rng = self.rng
         n = int(rng.integers(self.n_grf[0], self.n_grf[1] + 1))
         ell = rng.uniform(*self.length_scale)
-        y = np.arange(1, n + 1) / (n + 1)
-        cov = np.exp(-((y[:, None] - y[None, :]) ** 2) / (2 * ell**2)) + 1e-12 * np.eye(n)
-        x = np.linalg.cholesky(cov) @ rng.standard_normal(n)
+        # draw 2: plain loops, the same bits on any CPU (draw 1 was np.exp and
+        # np.linalg.cholesky(cov) @ z); the same random numbers in the same order
+        x = grf_values(n, ell, rng.standard_normal(n))
         i = np.arange(1, n + 1)
         low = (i - 1) / n + self.omega / 2
         high = i / n - self.omega / 2

@@ -76,7 +76,9 @@ class Calibration:
             ``solve_many`` batches, ``"batched"`` (per row): seconds (T,).
         info: the rest, kept as measured (``quantile``, ``confidence``, ``n``,
             ``L_quantiles``, ``estimate_over_true_median``, ``dataset_checksum``,
-            ``ood_seed``, ``initial_state``, ``device``).
+            ``dataset_draw`` (the draw version of that dataset; absent: draw 1, as in
+            every calibration shipped before draw 2), ``ood_seed``, ``initial_state``,
+            ``device``).
         version: the format it was read from (:data:`FORMAT` once written again).
 
     Example:
@@ -196,6 +198,36 @@ class Calibration:
         share = self.acceptance_rate(tol, kind, cautious=not batched)
         t_cls = self.classical_seconds(tol, kind, batched, horizon)
         return self.neural_seconds_per(batched) + (1.0 - share) * t_cls, share, t_cls
+
+    # -- the dataset it was measured on --------------------------------------------------
+    def check_dataset(self, dataset: Any, name: str = "this network") -> None:
+        """Check that ``dataset`` is the one this calibration was measured on.
+
+        The calibration records the dataset's checksum (``info["dataset_checksum"]``)
+        and, from draw 2 on, the draw that made it (``info["dataset_draw"]``; the
+        shipped calibrations predate it: no key means draw 1, whose bytes depend on the
+        CPU). A mismatch names the draw that made the recorded dataset, the one that made
+        ``dataset`` and the one this version runs.
+
+        Args:
+            dataset: a :class:`~nh_operators.data.Dataset` (or a path to one).
+            name: the network's name, for the message.
+
+        Raises:
+            ValueError: if the checksums differ (the message says which draws made
+                each), or the calibration records no dataset.
+        """
+        from ..data.generate import checksum_mismatch, load_dataset
+
+        if not hasattr(dataset, "checksum"):
+            dataset = load_dataset(dataset)
+        recorded = self.info.get("dataset_checksum")
+        if recorded is None:
+            raise ValueError(f"the calibration of {name} records no dataset checksum")
+        if dataset.checksum != recorded:
+            raise ValueError(checksum_mismatch(
+                f"the dataset {name} was calibrated on", recorded, dataset,
+                self.info.get("dataset_draw")))
 
     # -- files --------------------------------------------------------------------------
     @classmethod

@@ -161,11 +161,13 @@ def training_domain(data, state):
     from ..data import load_dataset
     from ..potentials import fit_domain
 
+    from ..data.generate import checksum_mismatch
+
     dataset = load_dataset(data)
     if state.get("data_checksum") not in (None, dataset.checksum):
-        raise ValueError(f"{data} is not the dataset this run trained on (checksum "
-                         f"{dataset.checksum} against the checkpoint's "
-                         f"{state['data_checksum']})")
+        raise ValueError(f"{data}: " + checksum_mismatch(
+            "the dataset this run trained on", state["data_checksum"], dataset,
+            state.get("data_draw")))
     train, _ = dataset.split_indices(state["config"].get("train_fraction", 0.8))
     domain = fit_domain(dataset.V[np.sort(train)],
                         source=f"{Path(data).stem} (training rows)")

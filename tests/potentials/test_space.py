@@ -230,7 +230,7 @@ def test_params_record_the_generator():
     space = BoundedPotentialSpace(seed=1, n_grf=(3, 6), length_scale=(0.02, 0.3), omega=0.04,
                                   margin=0.1)
     assert space.params() == {"n_grf": [3, 6], "length_scale": [0.02, 0.3], "omega": 0.04,
-                              "margin": 0.1, "V0": V0, "L": 1.0}
+                              "margin": 0.1, "V0": V0, "L": 1.0, "draw": 2}
 
 
 @pytest.mark.parametrize(
