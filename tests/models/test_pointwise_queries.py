@@ -267,7 +267,12 @@ def test_physics_informed_training_on_x_t_lowers_the_loss(name):
 @pytest.mark.gpu
 @pytest.mark.parametrize("dtype", [torch.float32, torch.float64])
 @pytest.mark.parametrize("name", NAMES)
-def test_pointwise_derivatives_on_cuda_match_the_cpu(name, dtype):
+def test_pointwise_derivatives_on_cuda_match_the_cpu(name, dtype, monkeypatch):
+    # TF32 (PyTorch's CUDA default for convolutions) rounds FNO's float32 spectral layer
+    # to ~7e-4 of its values, and its second derivatives 16 % off (H200): off here, as
+    # docs/any_problem.md tells physics-informed users to do
+    monkeypatch.setattr(torch.backends.cudnn, "allow_tf32", False)
+    monkeypatch.setattr(torch.backends.cuda.matmul, "allow_tf32", False)
     net = pointwise(name, 2, n_outputs=2)
     V, x = data(2)
     xg = x.clone().requires_grad_()
@@ -281,5 +286,9 @@ def test_pointwise_derivatives_on_cuda_match_the_cpu(name, dtype):
     dde.grad.clear()
     H = dde.grad.hessian(gpu((V, xc))[0], xc, component=1, i=1, j=0)
     tol = 1e-9 if dtype == torch.float64 else 1e-3
+    if name == "fno" and dtype == torch.float64:
+        # cuFFT's spectral layer leaves the CPU's by 5e-9 of the values; the
+        # second derivative by 7e-7 (H200)
+        tol = 1e-5
     torch.testing.assert_close(H.cpu().double(), ref.detach(), rtol=tol,
                                atol=tol * ref.abs().max().item())
