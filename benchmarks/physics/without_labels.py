@@ -18,7 +18,9 @@ trains for the same wall-clock budget (``--minutes``) on the same small
   residual and energy terms for the other half (that checkpoint, its config switched
   to ``physics={"energy": 1}``, resumed: the optimiser state carries on);
 * ``causal`` (only when asked for with ``--modes``): the residual and energy terms with
-  the causal weighting ε = ``--causal`` (default 10).
+  the causal weighting ε = ``--causal`` (default 10);
+* ``curriculum`` (only when asked for): the residual and energy terms on a horizon that
+  widens from 0.25 to 2 over ``--curriculum`` iterations; ``causal-curriculum``: both.
 
 Every run keeps its checkpoint in ``--out/runs/MODEL-MODE-sSEED``: an interrupted
 benchmark resumes (``nh.train(..., resume=True, max_minutes=...)``) and finished runs
@@ -58,7 +60,8 @@ from nh_operators.data import SensorSpline, load_dataset, preset_kwargs, time_de
 from nh_operators.models import batched_forward, cast_network
 from nh_operators.training import load_checkpoint, load_model, save_checkpoint
 
-MODES = ("data", "physics", "energy", "hybrid", "finetune", "causal")
+MODES = ("data", "physics", "energy", "hybrid", "finetune", "causal", "curriculum",
+         "causal-curriculum")
 ARCH = {"deeponet": {}, "traonet": {"query_coupled": False},
         "mambonet": {"query_coupled": False}, "varonet": {"query_coupled": False}}
 
@@ -82,7 +85,10 @@ def physics_of(mode: str, args: argparse.Namespace) -> dict | None:
     energy = {"energy": args.energy}
     return {"data": None, "physics": {}, "energy": energy,
             "hybrid": {"label_fraction": 0.1, **energy}, "finetune": energy,
-            "causal": {"causal": args.causal, **energy}}[mode]
+            "causal": {"causal": args.causal, **energy},
+            "curriculum": {"curriculum": args.curriculum, **energy},
+            "causal-curriculum": {"causal": args.causal, "curriculum": args.curriculum,
+                                  **energy}}[mode]
 
 
 def config(model: str, mode: str, seed: int, args: argparse.Namespace,
@@ -90,7 +96,7 @@ def config(model: str, mode: str, seed: int, args: argparse.Namespace,
     return nh.TrainConfig(model, preset="cpu", arch=dict(ARCH[model]), epochs=args.epochs,
                           seed=seed, batch_size=args.batch_size, scheduler="constant",
                           lr=args.lr,
-                          device="cpu", physics=physics)
+                          device=args.device, physics=physics)
 
 
 def train_run(model: str, mode: str, seed: int, train_path: Path, run: Path,
@@ -165,7 +171,7 @@ def one(model: str, mode: str, seed: int, paths: dict[str, Path],
 
 def table(results: list[dict], args: argparse.Namespace) -> str:
     lines = [(f"{args.minutes:g} min per run (finetune: {args.minutes / 2:g} + "
-              f"{args.minutes / 2:g}), {args.threads} thread(s), CPU, seeds "
+              f"{args.minutes / 2:g}), {args.threads} thread(s), {args.device}, seeds "
               f"{' '.join(map(str, args.seeds))}, train {args.train_size} paper-standard "
               f"potentials (80 % train), tests: first {args.test_size} of paper-test and "
               f"alg1-test; constant lr {args.lr:g}; values are means over seeds"), "",
@@ -208,6 +214,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--causal", type=float, default=10.0, help="ε of the causal mode")
     parser.add_argument("--energy", type=float, default=1.0,
                         help="weight of the energy term in every residual mode but physics")
+    parser.add_argument("--curriculum", type=int, default=20_000,
+                        help="iterations of the curriculum modes' widening horizon")
+    parser.add_argument("--device", default="cpu", help="cpu (default) or cuda")
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)

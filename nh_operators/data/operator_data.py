@@ -132,7 +132,8 @@ class OperatorData(dde.data.TripleCartesianProd):
     def _losses(self, targets, outputs, loss_fn, model, inputs=None):
         if self.physics is not None and inputs is not None:
             losses = self.physics.losses(inputs, outputs, targets,
-                                         getattr(model.net, "n_sensors", inputs[0].shape[1]))
+                                         getattr(model.net, "n_sensors", inputs[0].shape[1]),
+                                         iteration=self.cursor)
         else:
             losses = [loss_fn(targets, outputs)]
         kl = getattr(model.net, "kl", None)

@@ -13,7 +13,9 @@ loss term: the network's output transform makes it exact
 residual at time t_k is weighted by exp(−ε Σ_{j<k} r_j² Δt_j) per row (weights not
 differentiated), so later times count once earlier ones are resolved (Wang, Sankaran
 and Perdikaris, "Respecting causality is all you need for training physics-informed
-neural networks", 2022).
+neural networks", 2022). With ``curriculum`` = K > 0 iterations, only the times up to a
+horizon T(i) = t_max·(1/8 + 7/8·min(i/K, 1)) count at iteration i: the fit starts on the
+first eighth of the interval and widens to all of it over K iterations.
 
 Why: a residual needs no reference solve, so a network can train on potentials without
 labels, or with a few (``label_fraction``), and can be refined on one potential at test
@@ -50,7 +52,10 @@ class PhysicsTerms:
         extra_times: random collocation times in [0, t_max] drawn per iteration and
             added to the data's own query times (default 0: the grid only).
         causal: ε of the causal weighting (default 0: every time counts the same).
-        t_max: end of the time interval of the extra collocation times (default 2).
+        t_max: end of the time interval of the extra collocation times, and the horizon
+            the curriculum widens to (default 2).
+        curriculum: iterations over which the residual's horizon widens from t_max/8 to
+            t_max (default 0: the whole interval from the start).
         seed: seed of the labelled rows and the extra times.
 
     Raises:
@@ -70,6 +75,7 @@ class PhysicsTerms:
     extra_times: int = 0
     causal: float = 0.0
     t_max: float = 2.0
+    curriculum: int = 0
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -81,6 +87,9 @@ class PhysicsTerms:
         if int(self.extra_times) != self.extra_times or self.extra_times < 0:
             raise ValueError(f"extra_times must be a non-negative integer, got "
                              f"{self.extra_times}")
+        if int(self.curriculum) != self.curriculum or self.curriculum < 0:
+            raise ValueError(f"curriculum must be a non-negative integer, got "
+                             f"{self.curriculum}")
         if not self.t_max > 0:
             raise ValueError(f"t_max must be positive, got {self.t_max}")
 
@@ -100,8 +109,8 @@ class PhysicsTerms:
         return np.concatenate([grid, extra])
 
     def losses(self, inputs: tuple[torch.Tensor, torch.Tensor], outputs: torch.Tensor,
-               targets: torch.Tensor | None, n_sensors: int = SENSORS.size
-               ) -> list[torch.Tensor]:
+               targets: torch.Tensor | None, n_sensors: int = SENSORS.size,
+               iteration: int | None = None) -> list[torch.Tensor]:
         """The four weighted loss columns (:data:`COLUMNS`) of one batch.
 
         Args:
@@ -112,6 +121,8 @@ class PhysicsTerms:
             targets: (B, M, 2) labels at the first M times, NaN on unlabelled rows, or
                 None.
             n_sensors: m.
+            iteration: the training iteration (for the curriculum; None: the whole
+                interval).
 
         Returns:
             [residual q, residual p, energy, labels], each a scalar tensor.
@@ -133,6 +144,8 @@ class PhysicsTerms:
         Vq, dVq = spline(sensors, q)
         rq, rp = dy[..., 0] - p, dy[..., 1] + dVq
         weight = self._causal_weights(rq.detach() ** 2 + rp.detach() ** 2, t)
+        if self.curriculum and iteration is not None:
+            weight = weight * (t.detach()[:, 0] <= self.horizon(iteration)).to(t.dtype)
         columns = [self.residual * torch.mean(weight * rq**2),
                    self.residual * torch.mean(weight * rp**2)]
         if V.shape[1] >= n_sensors + 2:
@@ -144,6 +157,17 @@ class PhysicsTerms:
         columns.append(self.energy * torch.mean(drift**2))
         columns.append(self.labels * self._label_loss(outputs, targets))
         return columns
+
+    def horizon(self, iteration: int) -> float:
+        """The end of the times the residual counts at ``iteration`` (the curriculum).
+
+        Example:
+            >>> PhysicsTerms(curriculum=100).horizon(50)
+            1.125
+        """
+        if not self.curriculum:
+            return self.t_max
+        return self.t_max * (0.125 + 0.875 * min(iteration / self.curriculum, 1.0))
 
     def _causal_weights(self, r2: torch.Tensor, t: torch.Tensor) -> torch.Tensor | float:
         if not self.causal:

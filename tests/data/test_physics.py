@@ -151,3 +151,22 @@ def test_physics_only_training_lowers_the_residual_without_labels():
     losses, _ = model.train(iterations=150, batch_size=16, display_every=1000, verbose=0)
     first, last = np.sum(losses.loss_train[0][:2]), np.sum(losses.loss_train[-1][:2])
     assert last < 0.2 * first, (first, last)
+
+
+def test_curriculum_counts_only_the_times_inside_its_horizon():
+    """A trajectory exact up to t = 1 and wrong after: no residual while the horizon is
+    inside [0, 1], the full one once it has widened to 2."""
+    t_values = np.linspace(0, 2, 41)
+    inputs, y = _sho_inputs(t_values)
+    late = torch.tensor(t_values > 1.0)[None, :, None]
+    y = torch.where(late, y + 0.3 * (inputs[1][:, :1] - 1.0) ** 2, y)  # C¹ at t = 1
+    terms = PhysicsTerms(curriculum=100)
+    assert terms.horizon(0) == 0.25 and terms.horizon(100) == 2.0 == terms.horizon(10**6)
+    early = [float(c.detach()) for c in terms.losses(inputs, y, None, iteration=40)[:2]]
+    assert terms.horizon(40) == pytest.approx(0.95)
+    assert max(early) < 1e-20
+    full = [float(c.detach()) for c in terms.losses(inputs, y, None, iteration=100)[:2]]
+    plain = [float(c.detach()) for c in PhysicsTerms().losses(inputs, y, None)[:2]]
+    assert full == pytest.approx(plain, rel=1e-12) and full[0] > 1e-3
+    with pytest.raises(ValueError, match="curriculum must be a non-negative integer"):
+        PhysicsTerms(curriculum=-1)
