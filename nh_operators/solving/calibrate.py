@@ -180,7 +180,10 @@ def calibrate_factors(name: str, dataset: Any, *, other: Any = None, n_ood: int 
     fams = calibration_families(name, dataset, other=other, n_ood=n_ood, ood_seed=ood_seed)
     fine = refines(name)
     result: dict[str, Any] = {"quantile": quantile, "confidence": CONFIDENCE,
-                              "dataset_checksum": dataset.checksum, "ood_seed": ood_seed,
+                              "dataset_checksum": dataset.checksum,
+                              "dataset_draw": dict(getattr(dataset, "generator", None)
+                                                   or {"draw": 1}).get("draw", 1),
+                              "ood_seed": ood_seed,
                               "limits": list(LIMITS), "initial_state": reads_state(name),
                               "families": {fam: _family_bounds(*sample, quantile, fine)
                                            for fam, sample in fams.items()}}

@@ -81,6 +81,9 @@ class TrainingRun:
         self.model, self.scheduler, self.dist = model, scheduler, dist
         self.device = dist.device
         self.checksum = checksum
+        # the draw version of the training data (1: before draw 2, bytes CPU-dependent)
+        self.draw = int(dict(getattr(getattr(data, "rows", None), "generator", None)
+                             or {"draw": 1}).get("draw", 1))
         self.steps = data.steps_per_epoch(cfg["batch_size"])
         self.history, self.epoch_losses = [], []
         self.rng_state, self.diverged = None, None
@@ -173,6 +176,7 @@ class TrainingRun:
             "epoch": self.epoch,
             "rng": _rng_state(self.device),
             "data_checksum": self.checksum,
+            "data_draw": self.draw,
             "train_rows": self.data.n_train,
             "history": self.history,
             "version": __version__,

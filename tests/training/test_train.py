@@ -38,6 +38,7 @@ def test_run_directory_contents(small, tmp_path):
     state = load_checkpoint(tmp_path)
     assert state["epoch"] == 4
     assert state["data_checksum"] == small.checksum
+    assert state["data_draw"] == small.generator["draw"] == 2
     assert small.checksum.startswith("arrays-sha256:")
     assert {"model", "optimizer", "scheduler", "rng", "config"} <= set(state)
     config = json.loads((tmp_path / "config.json").read_text())
