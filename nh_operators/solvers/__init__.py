@@ -2,7 +2,12 @@
 
 Fixed-step RK4 and Yoshida methods on an exact potential or on the sensors' spline, the
 paper's RK4 row, the adaptive reference solve used for truth, the resolution checks, and
-the adaptive classical solve to a tolerance. Imports :mod:`nh_operators.potentials`.
+the adaptive classical solve to a tolerance (q' = p, p' = −V'(q) from (q0, p0) on
+[0, 1]). An error about one row of a batch is a :class:`~.row_error.RowError`.
+
+Why a wing of its own: the networks are measured against these solvers, and ``solve``
+falls back to them, so they are correct first (the step doubling's estimate bounds the
+error; a step too coarse warns) and fast second. Imports :mod:`nh_operators.potentials`.
 """
 
 from .._lazy import attach
@@ -16,6 +21,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "resolution": ["ENERGY_DRIFT_TOL", "RESOLUTION_FRACTION", "STABILITY_LIMITS",
                    "ResolutionWarning", "check_energy", "check_formula", "check_resolution_of",
                    "spline_curvature", "spline_drift"],
+    "row_error": ["RowError", "about_row"],
     "rows": ["RowSource", "row_source", "solve_rows"],
     "schemes": ["MAX_STEPS", "METHODS", "ORDERS"],
     "states": ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",

@@ -1,5 +1,11 @@
 """Compiled (numba) truth on a B-spline curve: adaptive Dormand–Prince 5(4) in the curve
-parameter λ (no inversion of q(λ)), from any point of the curve."""
+parameter λ, from any point of the curve.
+
+In λ, Hamilton's equations read λ' = p / q_λ(λ), p' = −V_λ(λ) / q_λ(λ): two cubic
+derivatives per evaluation. Why λ: the force in q needs q(λ) = x inverted at every
+evaluation (a Newton iteration), which at the reference's tolerances (1e-15) would be
+most of the cost and add its own rounding.
+"""
 
 import math
 

@@ -20,7 +20,7 @@ from .._sensors import sensor_values
 from ..potentials._spline_kernels import bspline_force, bspline_value, grid_force, grid_value
 from ..potentials.bounded import BoundedPotential, check_bounded
 from ._kernels import batch_fixed, notaknot_params, trajectory_fixed
-from ._orbit import pairwise
+from ._rowwise import pairwise
 from .resolution import (
     check_energy,
     check_formula,

@@ -17,10 +17,11 @@ estimate, and the solve itself runs to the rest of the tolerance (set beforehand
 S, a bound on p² + V′² along the orbit).
 
 **Refusals.** A time whose float64 spacing alone costs more than a quarter of the
-tolerance is beyond what float64 resolves (ValueError). A period that cannot be found
-(the orbit passes at zero speed over a barrier top, a separatrix, where T → ∞) or whose
-phase error exceeds a quarter of the tolerance raises :class:`PeriodError` when the
-latest time exceeds :data:`DIRECT_HORIZON`; up to there the orbit is integrated directly.
+tolerance is beyond what float64 resolves (a :class:`~.row_error.RowError`). A period
+that cannot be found (the orbit passes at zero speed over a barrier top, a separatrix,
+where T → ∞) or whose phase error exceeds a quarter of the tolerance raises
+:class:`PeriodError` when the latest time exceeds :data:`DIRECT_HORIZON`; up to there the
+orbit is integrated directly. Both name the row of a batch (``row``).
 """
 
 import math
@@ -30,6 +31,7 @@ import numpy as np
 from .._constants import TIMES
 from ._orbit import BARRIER, NOT_CONVERGED, batch_orbit_period, orbit_period
 from ._reduce import BEYOND, LOOSE_FAR, plan_rows
+from .row_error import RowError
 
 __all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError", "orbit_periods", "plan_horizon"]
 
@@ -49,8 +51,12 @@ _FAILURES = {NOT_CONVERGED: "its period quadrature did not converge",
                       "energy between its turning points"}
 
 
-class PeriodError(ValueError):
-    """The period of an orbit cannot be found to the accuracy the tolerance needs."""
+class PeriodError(RowError):
+    """The period of an orbit cannot be found to the accuracy the tolerance needs.
+
+    A :class:`~nh_operators.solvers.row_error.RowError` (so a ``ValueError``): ``row``
+    names the row of a batch, or is None for a single solve.
+    """
 
 
 def orbit_periods(src, rows, q0s, p0s, rate=None):
@@ -88,8 +94,9 @@ def orbit_periods(src, rows, q0s, p0s, rate=None):
     return out, status
 
 
-def _where(batched, i):
-    return f"row {i}: " if batched else ""
+def _row(batched, i):
+    """The row to name in an error: ``i`` in a batch, else None (no prefix)."""
+    return int(i) if batched else None
 
 
 def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
@@ -106,7 +113,7 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
         (N,) the phase bound on L_tot.
 
     Raises:
-        ValueError: a time beyond what float64 resolves.
+        RowError: a time beyond what float64 resolves.
         PeriodError: no usable period for a row whose horizon exceeds DIRECT_HORIZON.
     """
     n, m = ts.shape
@@ -144,25 +151,26 @@ def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
         ulp = np.spacing(tmax)
         with np.errstate(over="ignore"):
             rounding = 0.5 * S[k] * ulp**2
-        raise ValueError(
-            f"{_where(batched, need[k])}t = {tmax:g} is beyond what float64 resolves: "
+        raise RowError(
+            f"t = {tmax:g} is beyond what float64 resolves: "
             f"the spacing of float64 numbers there is {ulp:.3g}, which at speeds up to "
             f"{math.sqrt(S[k]):.3g} moves the state by {math.sqrt(S[k]) * ulp:.3g} (L_tot "
-            f"{rounding:.3g}), more than tol {tols[need[k]]:g} allows")
+            f"{rounding:.3g}), more than tol {tols[need[k]]:g} allows",
+            row=_row(batched, need[k]))
     k = int(np.flatnonzero(verdict >= LOOSE_FAR)[0])
     i = need[k]
     orbit = f"the orbit from (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}), energy {energy[k]:.10g}"
     if verdict[k] == LOOSE_FAR:
         raise PeriodError(
-            f"{_where(batched, i)}the period T = {T[k]:.6g} of {orbit}, is only known to "
+            f"the period T = {T[k]:.6g} of {orbit}, is only known to "
             f"±{dT[k]:.2g}: it passes near q = {peak[k]:.6g} at almost zero speed, close "
             f"to a separatrix, where T → ∞; times up to {DIRECT_HORIZON:g} are integrated "
-            "directly")
+            "directly", row=_row(batched, i))
     raise PeriodError(
-        f"{_where(batched, i)}the period of {orbit}, cannot be found: "
+        f"the period of {orbit}, cannot be found: "
         f"{_FAILURES[status[k]]} near q = {peak[k]:.6g}. The particle passes a barrier top "
         f"at (almost) zero speed, a separatrix, where T → ∞; times up to "
-        f"{DIRECT_HORIZON:g} are integrated directly")
+        f"{DIRECT_HORIZON:g} are integrated directly", row=_row(batched, i))
 
 
 def phase_error(src, plan, q, p, tols, batched=False):
@@ -183,12 +191,12 @@ def phase_error(src, plan, q, p, tols, batched=False):
         i = bad[0]
         k = int(np.flatnonzero(plan["need"] == i)[0])
         raise PeriodError(
-            f"{_where(batched, i)}the period T = {plan['period'][i]:.15g} is known to "
+            f"the period T = {plan['period'][i]:.15g} is known to "
             f"±{plan['dT'][k]:.2g}; by t = {plan['tmax'][i]:g} that shifts "
             f"the phase by up to {shift[i].max():.2g}, L_tot {phase[i]:.2g}, more than a "
             f"quarter of tol {tols[i]:g} (T is hard to pin down where the particle is slow: "
             "near a separatrix, or near a gentle turning point, where E − V(q) is as "
-            "small as its own rounding)")
+            "small as its own rounding)", row=_row(batched, i))
     return phase
 
 

@@ -20,7 +20,7 @@ from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
 from ._curve_fixed import curve_rows_fixed
 from ._kernels import level_gap, rows_fixed, trajectory_fixed
-from ._orbit import rowwise
+from ._rowwise import rowwise
 from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
 from .schemes import MAX_STEPS, ORDERS, step_method
 
@@ -198,31 +198,77 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
 
     Raises:
         ValueError: a time beyond float64's resolution, or too many steps.
-        PeriodError: see :mod:`.periodic`.
+        PeriodError: see :mod:`.periodic` (a :class:`~.row_error.RowError`: ``row`` names
+            the row when ``batched``).
     """
-    n = q0s.size
     t = np.asarray(t, dtype=np.float64)
+    asked_order, ts = _sorted_times(t, q0s.size)
+    plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
+    grid = _level_grid(src, plan, ts, t.ndim == 1, method)
+    solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
+    levels = _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched)
+    _check_return(plan, grid.with_t, levels, q0s, p0s, tols, batched)
+    qa, pa = _asked_columns(levels, plan["column"], ts.shape[1])
+    phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
+    q_final, p_final = _in_asked_order(qa, pa, asked_order, t.ndim)
+    est = (np.sqrt(levels.estimate) + np.sqrt(phase)) ** 2
+    return {"q": q_final, "p": p_final, "substeps": levels.substeps, "estimate": est,
+            "period": plan["period"], "phase": phase, "history": levels.history}
+
+
+def _sorted_times(t, n):
+    """(asked_order, ts): each row's times sorted, (N, M), and the order that sorts them."""
     if t.ndim == 1:  # times shared by every row: sort once
         asked_order = np.broadcast_to(np.argsort(t, kind="stable"), (n, t.size))
         ts = np.broadcast_to(t[asked_order[0]], (n, t.size))
     else:
         asked_order = np.argsort(t, axis=1, kind="stable")
         ts = np.take_along_axis(t, asked_order, axis=1)
-    m = ts.shape[1]
-    plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
-    work, periodic = plan["work"], plan["periodic"]
-    column = plan["column"]  # None: no row answered from a period, work = asked times
+    return asked_order, ts
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """The step grids of the levels and how a level's error is weighed (final).
+
+    Attributes:
+        work: (N, W) sorted working times (of :func:`~.periodic.plan_horizon`).
+        interval: (N,) the output interval over ``first``: level s takes s steps in it.
+        first: (N,) int64, the substeps per output interval of level 1.
+        shared: every row has row 0's times and grid (the lockstep kernel).
+        weight: (1, W) for every row, or (N, W): the share of each working time in the
+            mean gap of two levels.
+        with_t: (N,) rows answered from one period, whose last working time is T.
+        method: a key of :data:`~nh_operators.METHODS`.
+        rate, safety: the shrink of the previous gap per level, and the factor on the
+            estimate (:func:`_estimate_rule`).
+    """
+
+    work: np.ndarray
+    interval: np.ndarray
+    first: np.ndarray
+    shared: bool
+    weight: np.ndarray
+    with_t: np.ndarray
+    method: str
+    rate: float
+    safety: float
+
+
+def _level_grid(src, plan, ts, shared_times, method):
+    """The :class:`_Grid` of a solve from its horizon plan and sorted times ``ts``."""
+    n, m = ts.shape
+    periodic, column, work = plan["periodic"], plan["column"], plan["work"]
     # one grid for all rows: shared times, none answered from a period
-    shared = t.ndim == 1 and column is None
+    # (column None: no row answered from a period, work = asked times)
+    shared = shared_times and column is None
     interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
                 else default_interval(ts, periodic))
     # level 1 steps at most RESOLVED_STEP: `first` substeps per output interval
     first = 2 ** np.maximum(np.ceil(np.log2(interval / RESOLVED_STEP) - 1e-9), 0).astype(
         np.int64)
-    interval = interval / first
-    solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
     # rows answered from one period: their work column m is T, whose return to the
-    # start is checked below; other rows have a copy of their last time there
+    # start is checked after the solve; other rows have a copy of their last time there
     with_t = periodic & np.isfinite(plan["period"])
     # the estimate averages the asked times and, for a row answered from one period, T
     if column is None:  # every work time is asked; one row of weights for all
@@ -231,74 +277,122 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         weight = np.full(work.shape, 1.0 / (m + 1))
         weight[~with_t] = 1.0 / m
         weight[~with_t, m] = 0.0
+    rate, safety = _estimate_rule(src, method)
+    return _Grid(work, interval / first, first, shared, weight, with_t, method, rate, safety)
+
+
+def _estimate_rule(src, method):
+    """(rate, safety): how much the previous gap may be shrunk, and the factor on the
+    estimate.
+
+    By the method's rate on a C² potential; across a kink the level errors jump about
+    (MFF from (0.47, 1.43): gaps 1.4e-7, 8.2e-6, 2.3e-6 at 256, 512, 1024 substeps), so
+    there both gaps, times KINK_SAFETY, must meet tol.
+    """
+    rate = 4.0 ** min(ORDERS[method], 4) if src.smooth else 1.0
+    safety = 1.0 if src.smooth else KINK_SAFETY
+    return rate, safety
+
+
+@dataclass(frozen=True)
+class _Levels:
+    """What the doubling accepted per row (final): q, p (N, W) at the working times,
+    substeps and estimate (N,), and ``history`` (one row: (substeps, estimate) per
+    level)."""
+
+    q: np.ndarray
+    p: np.ndarray
+    substeps: np.ndarray
+    estimate: np.ndarray
+    history: list
+
+
+def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
+    """Double the substeps until each row's estimate meets ``solve_tol``; a row leaves as
+    soon as its own does (or every row at ``max_substeps``, with a warning)."""
+    n = q0s.size
     rows = np.arange(n)
-    q_out = np.empty((n, work.shape[1]))
+    q_out = np.empty((n, grid.work.shape[1]))
     p_out = np.empty_like(q_out)
     sub_out = np.zeros(n, dtype=np.int64)
     est_out = np.zeros(n)
-    q, p = _level(src, rows, work, interval, q0s, p0s, 1, method, shared)
+    q, p = _level(src, rows, grid.work, grid.interval, q0s, p0s, 1, grid.method, grid.shared)
     previous = np.full(n, np.inf)
-    # how much the previous gap may be shrunk: by the method's rate on a C² potential;
-    # across a kink the level errors jump about (MFF from (0.47, 1.43): gaps 1.4e-7,
-    # 8.2e-6, 2.3e-6 at 256, 512, 1024 substeps), so there both gaps, times
-    # KINK_SAFETY, must meet tol
-    rate = 4.0 ** min(ORDERS[method], 4) if src.smooth else 1.0
-    safety = 1.0 if src.smooth else KINK_SAFETY
     substeps = 1
     history = []
     while rows.size:
-        q2, p2 = _level(src, rows, work, interval, q0s, p0s, 2 * substeps, method,
-                        shared)
-        raw = level_gap(q, p, q2, p2, weight if weight.shape[0] == 1 else
-                        weight[rows])
+        q2, p2 = _level(src, rows, grid.work, grid.interval, q0s, p0s, 2 * substeps,
+                        grid.method, grid.shared)
+        raw = level_gap(q, p, q2, p2, grid.weight if grid.weight.shape[0] == 1 else
+                        grid.weight[rows])
         substeps *= 2
         # the gap to the previous level, and the one before it shrunk at the method's
         # rate: a coarse pair that agreed by chance does not hide the error (the first
         # gap alone is never evidence)
-        estimate = np.maximum(raw, previous[rows] / rate) * safety
+        estimate = np.maximum(raw, previous[rows] / grid.rate) * grid.safety
         if n == 1:
-            history.append((substeps * int(first[0]), float(estimate[0])))
+            history.append((substeps * int(grid.first[0]), float(estimate[0])))
         done = estimate <= solve_tol[rows]
-        if 2 * substeps * first.max() > max_substeps:
+        if 2 * substeps * grid.first.max() > max_substeps:
             if not done.all():
-                bad = rows[~done]
-                warnings.warn(f"tolerance {tols[bad[0]]:g} not reached within {max_substeps} "
-                              f"substeps (estimate {estimate[~done].max():.3g}"
-                              + (f", {bad.size} rows" if batched else "")
-                              + "); returning the finest solution", RuntimeWarning,
-                              stacklevel=4)
+                _warn_unreached(tols, rows[~done], estimate[~done], max_substeps, batched)
             done[:] = True
         finished = rows[done]
         q_out[finished], p_out[finished] = q2[done], p2[done]
-        sub_out[finished], est_out[finished] = substeps * first[finished], estimate[done]
+        sub_out[finished], est_out[finished] = substeps * grid.first[finished], estimate[done]
         previous[rows] = raw
         keep = ~done
         rows, q, p = rows[keep], q2[keep], p2[keep]
+    return _Levels(q_out, p_out, sub_out, est_out, history)
+
+
+def _warn_unreached(tols, bad, estimate, max_substeps, batched):
+    """Warn that rows ``bad`` (with their ``estimate``) miss their tolerance at the cap."""
+    # stacklevel: the frame three above solve_rows (past this helper and _doubling)
+    warnings.warn(f"tolerance {tols[bad[0]]:g} not reached within {max_substeps} "
+                  f"substeps (estimate {estimate.max():.3g}"
+                  + (f", {bad.size} rows" if batched else "")
+                  + "); returning the finest solution", RuntimeWarning,
+                  stacklevel=6)
+
+
+def _check_return(plan, with_t, levels, q0s, p0s, tols, batched):
+    """Rows answered from one period must return to their start at T (their working
+    column m); raise a :class:`PeriodError` for the first that misses by more than
+    10 tol (V has a feature the turning-point search stepped over)."""
     checked = np.flatnonzero(with_t)
-    if checked.size and column is not None:  # rows answered from a period have a column
-        pos = column[checked, m]
-        miss = 0.5 * ((q_out[checked, pos] - q0s[checked]) ** 2
-                      + (p_out[checked, pos] - p0s[checked]) ** 2)
-        bad = np.flatnonzero(miss > 10 * tols[checked])
-        if bad.size:
-            i = checked[bad[0]]
-            raise PeriodError(f"{'row %d: ' % i if batched else ''}the orbit does not return "
-                              f"to its starting state after the period T = "
-                              f"{plan['period'][i]:.10g} found by quadrature (squared miss "
-                              f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
-                              "stepped over")
+    column = plan["column"]
+    if not checked.size or column is None:  # rows answered from a period have a column
+        return
+    m = column.shape[1] - 1
+    pos = column[checked, m]
+    miss = 0.5 * ((levels.q[checked, pos] - q0s[checked]) ** 2
+                  + (levels.p[checked, pos] - p0s[checked]) ** 2)
+    bad = np.flatnonzero(miss > 10 * tols[checked])
+    if bad.size:
+        i = checked[bad[0]]
+        raise PeriodError(f"the orbit does not return "
+                          f"to its starting state after the period T = "
+                          f"{plan['period'][i]:.10g} found by quadrature (squared miss "
+                          f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
+                          "stepped over", row=int(i) if batched else None)
+
+
+def _asked_columns(levels, column, m):
+    """(q, p) at the asked times (N, M, sorted): the working columns they went to."""
     if column is None:  # the work columns are the asked ones
-        qa, pa = q_out, p_out
-    else:
-        qa = np.take_along_axis(q_out, column[:, :m], 1)
-        pa = np.take_along_axis(p_out, column[:, :m], 1)
-    phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
+        return levels.q, levels.p
+    return (np.take_along_axis(levels.q, column[:, :m], 1),
+            np.take_along_axis(levels.p, column[:, :m], 1))
+
+
+def _in_asked_order(qa, pa, asked_order, ndim):
+    """(q, p) of the sorted times ``qa``, ``pa`` (N, M) put back in the asked order."""
+    n, m = qa.shape
     q_final, p_final = np.empty((n, m)), np.empty((n, m))
-    if t.ndim == 1:
+    if ndim == 1:
         q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa
     else:
         np.put_along_axis(q_final, asked_order, qa, 1)
         np.put_along_axis(p_final, asked_order, pa, 1)
-    est = (np.sqrt(est_out) + np.sqrt(phase)) ** 2
-    return {"q": q_final, "p": p_final, "substeps": sub_out, "estimate": est,
-            "period": plan["period"], "phase": phase, "history": history}
+    return q_final, p_final

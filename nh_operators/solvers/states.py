@@ -9,6 +9,7 @@ as is any other state at rest on a wall.
 import numpy as np
 
 from .._constants import V0
+from .row_error import RowError
 
 __all__ = ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",
            "state_arrays"]
@@ -67,32 +68,32 @@ def check_states(q0s, p0s, value_at, batched=False):
         (N,) energies p0²/2 + V(q0).
 
     Raises:
-        ValueError: for q0 outside [0, 1], or an energy above V0 (the message names the
-            energy and the wall the particle would cross).
+        RowError: for q0 outside [0, 1], or an energy above V0 (the message names the
+            energy and the wall the particle would cross; ``row`` the row when batched).
 
     Example:
         >>> check_states(np.array([0.5]), np.array([3.0]),
         ...              lambda q: 8 * (q - 0.5) ** 2)  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        ValueError: the state (q0 = 0.5, p0 = 3) has energy p0²/2 + V(q0) = 4.5 > V0 = 2: ...
+        nh_operators.solvers.row_error.RowError: the state (q0 = 0.5, p0 = 3) has energy ...
     """
     for i in range(q0s.size):
         if not 0.0 <= q0s[i] <= 1.0:
-            row = f"row {i}: " if batched else ""
-            raise ValueError(f"{row}q0 = {q0s[i]:g} is outside [0, 1], where V is defined")
+            raise RowError(f"q0 = {q0s[i]:g} is outside [0, 1], where V is defined",
+                           row=i if batched else None)
     with np.errstate(all="ignore"):
         energy = 0.5 * p0s**2 + np.asarray(value_at(q0s), dtype=np.float64).reshape(-1)
     at_rest_on_wall = (p0s == 0.0) & ((q0s == 0.0) | (q0s == 1.0))
     bad = np.flatnonzero(~(energy <= V0 + STATE_ATOL) & ~at_rest_on_wall)
     if bad.size:
         i = bad[0]
-        row = f"row {i}: " if batched else ""
         wall = ("q = 1" if p0s[i] > 0 else "q = 0" if p0s[i] < 0
                 else "q = 0 and q = 1")
-        raise ValueError(f"{row}the state (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}) has energy "
-                         f"p0²/2 + V(q0) = {energy[i]:.10g} > V0 = {V0:g}: the particle would "
-                         f"cross the wall at {wall} and leave [0, 1], where V is defined")
+        raise RowError(f"the state (q0 = {q0s[i]:g}, p0 = {p0s[i]:g}) has energy "
+                       f"p0²/2 + V(q0) = {energy[i]:.10g} > V0 = {V0:g}: the particle would "
+                       f"cross the wall at {wall} and leave [0, 1], where V is defined",
+                       row=int(i) if batched else None)
     return energy
 
 

@@ -31,6 +31,7 @@ import numpy as np
 from .._backend import single_threaded
 from .._constants import SENSORS, TIMES
 from ..potentials import BoundedPotential, check_bounded, domain_stats, in_domain
+from ..solvers.row_error import RowError, about_row
 from ..solvers.rows import row_source, solve_rows
 from ..solvers.schemes import check_times
 from ..solvers.states import check_states, state_arrays
@@ -41,7 +42,6 @@ from .kinds import InputKind
 from .loader import load
 from .network_pass import Answers, NetworkRuns, pilot_order, record
 from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
-from .row_errors import RowError, named_row, row_error
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "RowError", "solve_many"]
 
@@ -251,10 +251,7 @@ def _checked_call(potentials, t, q0, p0) -> _Call:
     else:
         raise ValueError(f"t must have shape (M,) or (N, M) = ({n}, M); got {t.shape}")
     q0s, p0s = state_arrays(q0, p0, n)
-    try:
-        check_states(q0s, p0s, src.values_at, batched=True)
-    except ValueError as err:
-        raise named_row(err, np.arange(n)) from None
+    check_states(q0s, p0s, src.values_at, batched=True)  # a RowError names the row
     return _Call(potentials, src, V, kind, t, q0s, p0s)
 
 
@@ -352,8 +349,10 @@ def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target:
             out = solve_rows(sub, t[rows] if t.ndim == 2 else t, call.q0s[rows],
                              call.p0s[rows], np.full(rows.size, target), integrator,
                              MAX_SUBSTEPS, batched=True)
-        except ValueError as err:  # name the row of the whole call, not of the chunk
-            raise named_row(err, rows) from None
+        except RowError as err:  # name the row of the whole call, not of the chunk
+            if err.row is None:
+                raise
+            raise err.renumbered(int(rows[err.row])) from None
         answers.q[rows], answers.p[rows] = out["q"], out["p"]
         answers.estimate[rows], substeps[rows], period[rows] = (
             out["estimate"], out["substeps"], out["period"])
@@ -378,7 +377,7 @@ def _one_by_one(potentials, t, q0, p0, tol, method, start):
             sols.append(solve(pot, rows_t[i], tol=tol, method=method, q0=float(q0s[i]),
                               p0=float(p0s[i])))
         except ValueError as err:
-            raise row_error(err, i, str(err)) from None
+            raise about_row(err, i) from None
     neural = np.array([s.kind == "neural" for s in sols], dtype=bool)
     # a classical solve's last try (neural has one entry per solution)
     last = [{} if nn else s.tried[-1] for s, nn in zip(sols, neural, strict=True)]

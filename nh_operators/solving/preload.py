@@ -1,4 +1,9 @@
-"""Shipped networks loaded, and run once, before ``solve`` needs them."""
+"""Shipped networks loaded, and run once, before ``solve`` needs them.
+
+Why: the first ``solve`` that picks a network otherwise pays for reading its weights
+(tens of ms) and for a first forward (compiled kernels, torch's lazy setup), which can
+cost more than the classical solve it was chosen to beat.
+"""
 
 import numpy as np
 

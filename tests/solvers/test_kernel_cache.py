@@ -76,15 +76,15 @@ def _check_second_process_compiles_nothing(code, cache):
 
 def test_specialised_kernels_load_from_the_cache_in_a_new_process(tmp_path):
     code = """
-from nh_operators.solvers import _orbit
+from nh_operators.solvers import _rowwise
 from nh_operators.potentials.compiled import compile_expression
 from nh_operators.potentials.expression import parse_expression
 
 x = np.linspace(0, 1, 5)[None]
 out = np.empty_like(x)
-_orbit.rowwise(_spline_kernels.grid_force, np.arange(8.0)[None], x, out)
+_rowwise.rowwise(_spline_kernels.grid_force, np.arange(8.0)[None], x, out)
 value, _ = compile_expression(parse_expression("2 - 5*q*(1-q)**2"))
-_orbit.rowwise(value, np.zeros((1, 1)), x, out)
+_rowwise.rowwise(value, np.zeros((1, 1)), x, out)
 """
     first = _check_second_process_compiles_nothing(code, tmp_path)
     assert len(first["kernels"]) == 2  # one per function: grid_force, the formula's V
