@@ -12,6 +12,13 @@ For each potential (the five physical ones, ``--ood`` out-of-distribution ones f
   ``nh.solve_classical(potential, nh.TIMES, tol=<refined L_tot>)``, its wall time (best
   of ``--repeat``) and its L_tot.
 
+With ``--optimizer newton`` the refinement is ``nh.refine(net, potential,
+method="newton", tol=--tol)``: the network's trajectory is the first guess of a Chebyshev
+collocation solve driven by Newton's method (the weights are not touched); its time is the
+best of ``--repeat`` (network forward included), and two more columns say whether it
+converged and what the same Newton solve reaches from the guess q ≡ 0 instead of the
+network's (what the network's guess is worth).
+
 The refinement is worth it where it lowers the error *and* costs less than the classical
 solver at that error; the last column says which.
 
@@ -19,6 +26,8 @@ Run it (one thread)::
 
     OMP_NUM_THREADS=1 python benchmarks/physics/refine.py --networks deeponet-paper \\
         --optimizer adam --steps 500 --lr 1e-4 --ood 4
+    OMP_NUM_THREADS=1 python benchmarks/physics/refine.py --networks deeponet-paper \\
+        --optimizer newton --tol 1e-10 --ood 4
 """
 
 from __future__ import annotations
@@ -32,6 +41,7 @@ import torch
 import nh_operators as nh
 from nh_operators.evaluation import loss_per_sample, time_call
 from nh_operators.potentials import ood_potentials
+from nh_operators.solvers import collocate
 from nh_operators.training import load_model
 
 
@@ -59,25 +69,54 @@ def row(label: str, potential, net: torch.nn.Module, args: argparse.Namespace) -
         y = net.eval()((V, t))[0].double().numpy()
     before = l_tot(y[:, 0], y[:, 1], ref)
     forward = best_time(lambda: net((V, t)), args.repeat)
-    r = nh.refine(net, potential, nh.TIMES, steps=args.steps, lr=args.lr,
-                  optimizer=args.optimizer, collocation=args.collocation,
-                  parameters=args.parameters)
+    if args.optimizer == "newton":
+        def call() -> object:
+            return nh.refine(net, potential, nh.TIMES, method="newton", tol=args.tol)
+
+        r = call()
+        seconds = best_time(call, args.repeat)
+    else:
+        r = nh.refine(net, potential, nh.TIMES, steps=args.steps, lr=args.lr,
+                      optimizer=args.optimizer, collocation=args.collocation,
+                      parameters=args.parameters)
+        seconds = r.seconds
     after = l_tot(r.q, r.p, ref)
     target = max(after, 1e-14)
     solve = best_time(lambda: nh.solve_classical(potential, nh.TIMES, tol=target),
                       args.repeat)
     sol = nh.solve_classical(potential, nh.TIMES, tol=target)
     return {"potential": label, "before": before, "forward": forward, "after": after,
-            "refine": r.seconds, "res0": r.residual_before, "res1": r.residual_after,
+            "refine": seconds, "res0": r.residual_before, "res1": r.residual_after,
             "classical": solve, "classical_err": l_tot(sol.q, sol.p, ref),
-            "substeps": sol.substeps}
+            "substeps": sol.substeps, "converged": r.converged,
+            "from_zero": from_zero(potential, ref, args) if args.optimizer == "newton"
+            else None}
+
+
+def from_zero(potential, ref: tuple[np.ndarray, np.ndarray], args: argparse.Namespace
+              ) -> str:
+    """The same Newton collocation from the guess q ≡ 0: its L_tot, or why not."""
+    if not callable(getattr(potential, "dV", None)):
+        return "—"
+    dV = potential.dV
+
+    def d2V(q: np.ndarray) -> np.ndarray:
+        return (dV(q + 1e-6) - dV(q - 1e-6)) / 2e-6
+
+    sol = collocate(dV, d2V, lambda t: 0.0 * t, float(nh.TIMES[-1]), tol=args.tol)
+    if not np.all(np.isfinite(sol.q)):
+        return "diverged"
+    q, p = sol(nh.TIMES)
+    return f"{l_tot(q, p, ref):.1e}" + ("" if sol.converged else " (not converged)")
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--networks", nargs="+", default=["deeponet-paper"],
                         help="shipped names or nh.train run directories (pointwise nets)")
-    parser.add_argument("--optimizer", choices=["adam", "lbfgs"], default="adam")
+    parser.add_argument("--optimizer", choices=["adam", "lbfgs", "newton"], default="adam",
+                        help="newton: nh.refine(method='newton'), the trajectory refined")
+    parser.add_argument("--tol", type=float, default=1e-10, help="newton's tolerance")
     parser.add_argument("--steps", type=int, default=500)
     parser.add_argument("--lr", type=float, default=1e-4)
     parser.add_argument("--collocation", type=int, default=200)
@@ -92,25 +131,31 @@ def main(argv: list[str] | None = None) -> None:
     potentials = list(nh.PHYSICAL_POTENTIALS.items())
     for i, pot in enumerate(ood_potentials(args.ood, 0) if args.ood else []):
         potentials.append((f"ood {i}: {getattr(pot, 'name', type(pot).__name__)}", pot))
-    print(f"{args.optimizer}, {args.steps} steps, lr {args.lr:g}, {args.collocation} "
-          f"collocation times, parameters {args.parameters or 'all'}, {args.threads} "
-          f"thread(s), CPU; times: best of {args.repeat}")
+    if args.optimizer == "newton":
+        print(f"newton, tol {args.tol:g}, {args.threads} thread(s), CPU; times: best of "
+              f"{args.repeat} (refine: network forward included)")
+    else:
+        print(f"{args.optimizer}, {args.steps} steps, lr {args.lr:g}, {args.collocation} "
+              f"collocation times, parameters {args.parameters or 'all'}, {args.threads} "
+              f"thread(s), CPU; times: best of {args.repeat}")
     print()
-    print("| network | potential | L_tot before | after | refine s | residual before → after"
-          " | classical s at that tol (RK4 substeps) | classical L_tot | network forward s |"
-          " worth it |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| network | potential | L_tot before | after | refine ms | residual before → after"
+          " | classical ms at that tol (RK4 substeps) | classical L_tot | network forward ms |"
+          " worth it | converged | Newton from q ≡ 0 |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.networks:
         label, net = network(name)
         for pot_name, pot in potentials:
             r = row(pot_name, pot, net, args)
             better = r["after"] < r["before"]
             worth = "yes" if better and r["refine"] < r["classical"] else (
-                "no: slower than classical" if better else "no: worse")
+                "no: slower than classical" if better else
+                "no: network's answer kept" if r["after"] == r["before"] else "no: worse")
             print(f"| {label} | {r['potential']} | {r['before']:.2e} | {r['after']:.2e} | "
-                  f"{r['refine']:.2f} | {r['res0']:.1e} → {r['res1']:.1e} | "
-                  f"{r['classical']:.1e} ({r['substeps']}) | {r['classical_err']:.1e} | "
-                  f"{r['forward']:.1e} | {worth} |", flush=True)
+                  f"{r['refine'] * 1e3:.3g} | {r['res0']:.1e} → {r['res1']:.1e} | "
+                  f"{r['classical'] * 1e3:.3g} ({r['substeps']}) | {r['classical_err']:.1e} | "
+                  f"{r['forward'] * 1e3:.3g} | {worth} | {r['converged']} | "
+                  f"{r['from_zero'] or '—'} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -29,6 +29,8 @@ def batched_forward(net, V, t, batch_size):
         (start index, output tensor of the batch V[start:start + batch_size]).
     """
     param = next(net.parameters())
+    if isinstance(t, np.ndarray) and not t.flags.writeable:
+        t = t.copy()  # torch warns on read-only arrays (nh.TIMES is one)
     t = torch.as_tensor(t, dtype=param.dtype, device=param.device)
     was_training = net.training
     # switching modes walks every submodule (about 0.1 ms for a small network, a fifth of

@@ -15,6 +15,8 @@ from .._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "classical_solve": ["RESOLVED_STEP", "ClassicalSolution", "adaptive_solve", "coerce_potential",
                         "solve_classical"],
+    "collocation": ["Collocation", "chebyshev_points", "collocate", "collocation_residual",
+                    "newton_collocation"],
     "fixed_step": ["integrate", "integrate_sensors", "paper_rk4", "sensor_spline_params"],
     "periodic": ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError"],
     "reference": ["reference_solve"],

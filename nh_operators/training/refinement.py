@@ -19,7 +19,6 @@ against a classical solver at the refined accuracy is measured by
 from __future__ import annotations
 
 import copy
-import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Any, Literal
@@ -30,37 +29,24 @@ import torch
 from .._constants import SENSORS, TIMES
 from ..data import SensorSpline, time_derivative
 from ..models import cast_network
+from .refinement_result import Refinement
 
 __all__ = ["Refinement", "refine"]
-
-
-@dataclasses.dataclass(frozen=True)
-class Refinement:
-    """What :func:`refine` returns.
-
-    Attributes:
-        q, p: (M,) the refined trajectory at the asked times (float64).
-        residual_before, residual_after: mean squared residual (both equations, averaged)
-            at the collocation times, before and after the steps.
-        steps: optimisation steps taken.
-        seconds: wall time of the refinement (copy, steps and prediction).
-        net: the refined copy (float64); the given network is unchanged.
-    """
-
-    q: np.ndarray
-    p: np.ndarray
-    residual_before: float
-    residual_after: float
-    steps: int
-    seconds: float
-    net: torch.nn.Module
 
 
 def refine(model: Any, potential: Any, t: np.ndarray = TIMES, *, steps: int = 100,
            lr: float = 1e-4, optimizer: Literal["adam", "lbfgs"] = "adam",
            q0: float = 0.0, p0: float = 0.0, collocation: int = 200,
-           knots: int = 1000, parameters: Sequence[str] | None = None) -> Refinement:
+           knots: int = 1000, parameters: Sequence[str] | None = None,
+           method: Literal["weights", "newton"] = "weights", tol: float = 1e-10
+           ) -> Refinement:
     """Refine a network's prediction on one potential by lowering its residual.
+
+    Two methods. ``"weights"`` (default) takes ``steps`` optimiser steps on a float64 copy
+    of the network. ``"newton"`` keeps the network and refines its trajectory: the
+    prediction is the first guess of a Chebyshev collocation solve, driven by Newton's
+    method to ``tol`` (:func:`~nh_operators.training.refine_newton`; ``steps``, ``lr``,
+    ``optimizer``, ``parameters`` and ``collocation`` do not apply to it).
 
     Args:
         model: a pointwise network (``query_coupled`` False), or a method holding one in
@@ -81,6 +67,8 @@ def refine(model: Any, potential: Any, t: np.ndarray = TIMES, *, steps: int = 10
             gets them after the sensors.
         collocation: residual times, uniform on [0, max(t, 2)] (default 200).
         knots: samples of a potential given as a function (default 1,000).
+        method: "weights" (default) or "newton".
+        tol: ``method="newton"``: the collocation's tolerance (default 1e-10).
 
     Returns:
         :class:`Refinement`.
@@ -96,6 +84,12 @@ def refine(model: Any, potential: Any, t: np.ndarray = TIMES, *, steps: int = 10
         >>> r.q.shape, r.residual_after < r.residual_before
         ((100,), True)
     """
+    if method == "newton":
+        from .newton_refinement import refine_newton
+
+        return refine_newton(model, potential, t, tol=tol, q0=q0, p0=p0, knots=knots)
+    if method != "weights":
+        raise ValueError(f"method must be 'weights' or 'newton', got {method!r}")
     start = time.perf_counter()
     net = getattr(model, "net", model)
     if getattr(net, "query_coupled", False):
