@@ -153,8 +153,8 @@ def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=No
         q0s, p0s = state_arrays(q0, p0, 1)
         check_states(q0s, p0s, src.values_at)
         out = solve_rows(src, t, q0s, p0s, np.array([float(tol)]), method, max_substeps)
-    period = float(out["period"][0])
-    return ClassicalSolution(out["q"][0], out["p"][0], method, int(out["substeps"][0]),
-                             float(out["estimate"][0]), time.perf_counter() - start,
-                             information, out["history"],
+    period = float(out.period[0])
+    return ClassicalSolution(out.q[0], out.p[0], method, int(out.substeps[0]),
+                             float(out.estimate[0]), time.perf_counter() - start,
+                             information, out.history,
                              None if np.isnan(period) else period)

@@ -25,6 +25,7 @@ orbit is integrated directly. Both name the row of a batch (``row``).
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,7 +34,8 @@ from ._orbit import BARRIER, NOT_CONVERGED, batch_orbit_period, orbit_period
 from ._reduce import BEYOND, LOOSE_FAR, plan_rows
 from .row_error import RowError
 
-__all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "PeriodError", "orbit_periods", "plan_horizon"]
+__all__ = ["DIRECT_HORIZON", "PERIODIC_FROM", "HorizonPlan", "PeriodError", "PeriodShift",
+           "orbit_periods", "plan_horizon"]
 
 #: Rows whose latest time exceeds this are answered from one period.
 PERIODIC_FROM = 2.0
@@ -57,6 +59,48 @@ class PeriodError(RowError):
     A :class:`~nh_operators.solvers.row_error.RowError` (so a ``ValueError``): ``row``
     names the row of a batch, or is None for a single solve.
     """
+
+
+@dataclass(frozen=True)
+class PeriodShift:
+    """The phase data of a plan in which some row's horizon exceeds :data:`PERIODIC_FROM`
+    (final): what :func:`phase_error` needs to measure the phase error at the solution.
+
+    Attributes:
+        shift: (N, M) per sorted asked time, the shift n δT + ulp(t) that the error of T
+            and the rounding of t cause (0 in rows not answered from one period).
+        period_error: (K,) the error bound δT of the period of each row of ``rows``.
+        rows: (K,) int64, the rows whose latest time exceeds :data:`PERIODIC_FROM`.
+        horizon: (N,) the latest asked time of every row.
+    """
+
+    shift: np.ndarray
+    period_error: np.ndarray
+    rows: np.ndarray
+    horizon: np.ndarray
+
+
+@dataclass(frozen=True)
+class HorizonPlan:
+    """The working times of a solve, from :func:`plan_horizon` (final).
+
+    Attributes:
+        work: (N, M), or (N, M + 1) when ``column`` is set: sorted working times.
+        column: (N, M + 1) int64, the sorted working column of each asked time, then of
+            T; None when no row's horizon exceeds :data:`PERIODIC_FROM` (``work`` is then
+            the asked times).
+        periodic: (N,) bool, the rows answered from one period (or standing still).
+        period: (N,) the period T of each row answered from one, nan elsewhere.
+        phase: (N,) the bound on the phase part of L_tot that the solve leaves room for.
+        shifts: the phase data when ``column`` is set, else None.
+    """
+
+    work: np.ndarray
+    column: np.ndarray | None
+    periodic: np.ndarray
+    period: np.ndarray
+    phase: np.ndarray
+    shifts: PeriodShift | None = None
 
 
 def orbit_periods(src, rows, q0s, p0s, rate=None):
@@ -99,7 +143,7 @@ def _row(batched, i):
     return int(i) if batched else None
 
 
-def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
+def plan_horizon(src, ts, q0s, p0s, tols, batched=False) -> HorizonPlan:
     """Working times of each row: reduced into one period where the horizon needs it.
 
     Args:
@@ -107,10 +151,8 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
             tolerances on L_tot; batched: name rows in messages.
 
     Returns:
-        dict with ``work`` (N, M or M + 1) sorted working times, ``column`` (N, M + 1)
-        the sorted column of each asked time, then of T (None when no row needs a
-        period), ``periodic`` (N,) bool, ``period`` (N,) T (nan when unused), ``phase``
-        (N,) the phase bound on L_tot.
+        :class:`HorizonPlan`: ``column`` and ``shifts`` are None when no row's latest
+        time exceeds :data:`PERIODIC_FROM`.
 
     Raises:
         RowError: a time beyond what float64 resolves.
@@ -122,8 +164,7 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
     periodic = np.zeros(n, dtype=bool)
     need = np.flatnonzero(ts[:, -1] > PERIODIC_FROM)
     if need.size == 0:
-        return {"work": ts, "column": None, "periodic": periodic, "period": period,
-                "phase": phase}
+        return HorizonPlan(ts, None, periodic, period, phase)
     # L_tot of a shift s is about s² S / 2: allow PHASE_SHARE · tol at the latest time
     rate = np.sqrt(2.0 * PHASE_SHARE * tols[need]) / ts[need, -1]
     out, status = orbit_periods(src, need, q0s, p0s, rate)
@@ -136,9 +177,8 @@ def plan_horizon(src, ts, q0s, p0s, tols, batched=False):
               DIRECT_HORIZON, work, column, shifts, phase, period, periodic, verdict)
     if verdict.max() >= BEYOND:
         _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched)
-    return {"work": work, "column": column, "periodic": periodic, "period": period,
-            "phase": phase, "shift": shifts, "dT": out[:, 1], "need": need,
-            "tmax": ts[:, -1]}
+    return HorizonPlan(work, column, periodic, period, phase,
+                       PeriodShift(shifts, out[:, 1], need, ts[:, -1]))
 
 
 def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
@@ -173,15 +213,26 @@ def _refuse(ts, tols, q0s, p0s, need, out, status, verdict, batched):
         f"{DIRECT_HORIZON:g} are integrated directly", row=_row(batched, i))
 
 
-def phase_error(src, plan, q, p, tols, batched=False):
+def phase_error(src, plan: HorizonPlan, q, p, tols, batched=False) -> np.ndarray:
     """The phase part of L_tot at the solution: mean((n δT + ulp)² (p² + V′²)) / 2, (N,).
 
-    Uses the states (q, p) at the asked times (N, M, in the sorted order of the plan);
-    raises :class:`PeriodError` where it exceeds a quarter of the tolerance.
+    Args:
+        src: the row source of the solve; plan: its :class:`HorizonPlan`.
+        q, p: (N, M) the states at the asked times, in the sorted order of the plan.
+        tols: (N,) tolerances on L_tot; batched: name rows in messages.
+
+    Returns:
+        (N,) the phase part of L_tot; ``plan.phase`` when the plan has no ``shifts``.
+
+    Raises:
+        PeriodError: where the phase part exceeds a quarter of the tolerance.
     """
-    shift = plan["shift"]
+    if plan.shifts is None:  # no row answered from one period
+        return plan.phase
+    shifts = plan.shifts
+    shift = shifts.shift
     rows = np.flatnonzero(shift.any(axis=1))
-    phase = plan["phase"].copy()  # rows without a shift keep theirs (0, or a tiny orbit's)
+    phase = plan.phase.copy()  # rows without a shift keep theirs (0, or a tiny orbit's)
     if rows.size:
         force = src.subset(rows).forces_at(q[rows]) if src.params.shape[0] > 1 else \
             src.forces_at(q[rows])
@@ -189,10 +240,10 @@ def phase_error(src, plan, q, p, tols, batched=False):
     bad = np.flatnonzero(phase > 0.25 * tols)
     if bad.size:
         i = bad[0]
-        k = int(np.flatnonzero(plan["need"] == i)[0])
+        k = int(np.flatnonzero(shifts.rows == i)[0])
         raise PeriodError(
-            f"the period T = {plan['period'][i]:.15g} is known to "
-            f"±{plan['dT'][k]:.2g}; by t = {plan['tmax'][i]:g} that shifts "
+            f"the period T = {plan.period[i]:.15g} is known to "
+            f"±{shifts.period_error[k]:.2g}; by t = {shifts.horizon[i]:g} that shifts "
             f"the phase by up to {shift[i].max():.2g}, L_tot {phase[i]:.2g}, more than a "
             f"quarter of tol {tols[i]:g} (T is hard to pin down where the particle is slow: "
             "near a separatrix, or near a gentle turning point, where E − V(q) is as "

@@ -18,13 +18,15 @@ from .._constants import TIMES
 from ..potentials._spline_kernels import bspline_force, bspline_value, grid_force, grid_value
 from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
+from ._asked_order import asked_columns, in_asked_order, sorted_times
 from ._curve_fixed import curve_rows_fixed
 from ._kernels import level_gap, rows_fixed, trajectory_fixed
 from ._rowwise import rowwise
-from .periodic import DIRECT_HORIZON, PeriodError, default_interval, phase_error, plan_horizon
+from .periodic import (DIRECT_HORIZON, HorizonPlan, PeriodError, default_interval, phase_error,
+                       plan_horizon)
 from .schemes import MAX_STEPS, ORDERS, step_method
 
-__all__ = ["RESOLVED_STEP", "RowSource", "row_source", "solve_rows"]
+__all__ = ["RESOLVED_STEP", "RowSolution", "RowSource", "row_source", "solve_rows"]
 
 #: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
 #: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
@@ -179,7 +181,31 @@ def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
     return oq, op
 
 
-def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=False):
+@dataclass(frozen=True)
+class RowSolution:
+    """What :func:`solve_rows` returns (final).
+
+    Attributes:
+        q, p: (N, M) the states at the asked times, in the asked order.
+        substeps: (N,) int64, the substeps per output interval of the accepted level.
+        estimate: (N,) the estimated L_tot, the phase part included.
+        period: (N,) the period T of each row answered from one period, nan elsewhere.
+        phase: (N,) the phase part of ``estimate``.
+        history: for a solve of one row, the (substeps, estimate) of every level; empty
+            for more rows.
+    """
+
+    q: np.ndarray
+    p: np.ndarray
+    substeps: np.ndarray
+    estimate: np.ndarray
+    period: np.ndarray
+    phase: np.ndarray
+    history: list[tuple[int, float]]
+
+
+def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096,
+               batched=False) -> RowSolution:
     """Solve every row to its tolerance by doubling the substeps (see :mod:`.classical_solve`).
 
     Args:
@@ -192,9 +218,7 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
         batched: name rows in messages.
 
     Returns:
-        dict: ``q``, ``p`` (N, M) in the asked order; ``substeps``, ``estimate``,
-        ``period`` (nan where unused) and ``phase`` (the phase part of the estimate), (N,);
-        ``history``, for one row, the (substeps, estimate) of every level.
+        :class:`RowSolution`.
 
     Raises:
         ValueError: a time beyond float64's resolution, or too many steps.
@@ -202,29 +226,18 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096, batched=
             the row when ``batched``).
     """
     t = np.asarray(t, dtype=np.float64)
-    asked_order, ts = _sorted_times(t, q0s.size)
+    asked_order, ts = sorted_times(t, q0s.size)
     plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
     grid = _level_grid(src, plan, ts, t.ndim == 1, method)
-    solve_tol = (np.sqrt(tols) - np.sqrt(plan["phase"])) ** 2
+    solve_tol = (np.sqrt(tols) - np.sqrt(plan.phase)) ** 2
     levels = _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched)
     _check_return(plan, grid.with_t, levels, q0s, p0s, tols, batched)
-    qa, pa = _asked_columns(levels, plan["column"], ts.shape[1])
-    phase = phase_error(src, plan, qa, pa, tols, batched) if "shift" in plan else plan["phase"]
-    q_final, p_final = _in_asked_order(qa, pa, asked_order, t.ndim)
+    qa, pa = asked_columns(levels.q, levels.p, plan.column, ts.shape[1])
+    phase = phase_error(src, plan, qa, pa, tols, batched)
+    q_final, p_final = in_asked_order(qa, pa, asked_order, t.ndim)
     est = (np.sqrt(levels.estimate) + np.sqrt(phase)) ** 2
-    return {"q": q_final, "p": p_final, "substeps": levels.substeps, "estimate": est,
-            "period": plan["period"], "phase": phase, "history": levels.history}
-
-
-def _sorted_times(t, n):
-    """(asked_order, ts): each row's times sorted, (N, M), and the order that sorts them."""
-    if t.ndim == 1:  # times shared by every row: sort once
-        asked_order = np.broadcast_to(np.argsort(t, kind="stable"), (n, t.size))
-        ts = np.broadcast_to(t[asked_order[0]], (n, t.size))
-    else:
-        asked_order = np.argsort(t, axis=1, kind="stable")
-        ts = np.take_along_axis(t, asked_order, axis=1)
-    return asked_order, ts
+    return RowSolution(q_final, p_final, levels.substeps, est, plan.period, phase,
+                       levels.history)
 
 
 @dataclass(frozen=True)
@@ -255,10 +268,10 @@ class _Grid:
     safety: float
 
 
-def _level_grid(src, plan, ts, shared_times, method):
+def _level_grid(src, plan: HorizonPlan, ts, shared_times, method):
     """The :class:`_Grid` of a solve from its horizon plan and sorted times ``ts``."""
     n, m = ts.shape
-    periodic, column, work = plan["periodic"], plan["column"], plan["work"]
+    periodic, column, work = plan.periodic, plan.column, plan.work
     # one grid for all rows: shared times, none answered from a period
     # (column None: no row answered from a period, work = asked times)
     shared = shared_times and column is None
@@ -269,7 +282,7 @@ def _level_grid(src, plan, ts, shared_times, method):
         np.int64)
     # rows answered from one period: their work column m is T, whose return to the
     # start is checked after the solve; other rows have a copy of their last time there
-    with_t = periodic & np.isfinite(plan["period"])
+    with_t = periodic & np.isfinite(plan.period)
     # the estimate averages the asked times and, for a row answered from one period, T
     if column is None:  # every work time is asked; one row of weights for all
         weight = np.full((1, m), 1.0 / m)
@@ -304,7 +317,7 @@ class _Levels:
     p: np.ndarray
     substeps: np.ndarray
     estimate: np.ndarray
-    history: list
+    history: list[tuple[int, float]]
 
 
 def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
@@ -319,7 +332,7 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
     q, p = _level(src, rows, grid.work, grid.interval, q0s, p0s, 1, grid.method, grid.shared)
     previous = np.full(n, np.inf)
     substeps = 1
-    history = []
+    history: list[tuple[int, float]] = []
     while rows.size:
         q2, p2 = _level(src, rows, grid.work, grid.interval, q0s, p0s, 2 * substeps,
                         grid.method, grid.shared)
@@ -356,12 +369,12 @@ def _warn_unreached(tols, bad, estimate, max_substeps, batched):
                   stacklevel=6)
 
 
-def _check_return(plan, with_t, levels, q0s, p0s, tols, batched):
+def _check_return(plan: HorizonPlan, with_t, levels, q0s, p0s, tols, batched):
     """Rows answered from one period must return to their start at T (their working
     column m); raise a :class:`PeriodError` for the first that misses by more than
     10 tol (V has a feature the turning-point search stepped over)."""
     checked = np.flatnonzero(with_t)
-    column = plan["column"]
+    column = plan.column
     if not checked.size or column is None:  # rows answered from a period have a column
         return
     m = column.shape[1] - 1
@@ -373,26 +386,6 @@ def _check_return(plan, with_t, levels, q0s, p0s, tols, batched):
         i = checked[bad[0]]
         raise PeriodError(f"the orbit does not return "
                           f"to its starting state after the period T = "
-                          f"{plan['period'][i]:.10g} found by quadrature (squared miss "
+                          f"{plan.period[i]:.10g} found by quadrature (squared miss "
                           f"{miss[bad[0]]:.2g}): V has a feature the turning-point search "
                           "stepped over", row=int(i) if batched else None)
-
-
-def _asked_columns(levels, column, m):
-    """(q, p) at the asked times (N, M, sorted): the working columns they went to."""
-    if column is None:  # the work columns are the asked ones
-        return levels.q, levels.p
-    return (np.take_along_axis(levels.q, column[:, :m], 1),
-            np.take_along_axis(levels.p, column[:, :m], 1))
-
-
-def _in_asked_order(qa, pa, asked_order, ndim):
-    """(q, p) of the sorted times ``qa``, ``pa`` (N, M) put back in the asked order."""
-    n, m = qa.shape
-    q_final, p_final = np.empty((n, m)), np.empty((n, m))
-    if ndim == 1:
-        q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa
-    else:
-        np.put_along_axis(q_final, asked_order, qa, 1)
-        np.put_along_axis(p_final, asked_order, pa, 1)
-    return q_final, p_final

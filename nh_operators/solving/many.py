@@ -353,9 +353,9 @@ def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target:
             if err.row is None:
                 raise
             raise err.renumbered(int(rows[err.row])) from None
-        answers.q[rows], answers.p[rows] = out["q"], out["p"]
+        answers.q[rows], answers.p[rows] = out.q, out.p
         answers.estimate[rows], substeps[rows], period[rows] = (
-            out["estimate"], out["substeps"], out["period"])
+            out.estimate, out.substeps, out.period)
         if bar is not None:
             bar.update(rows.size)
     if bar is not None:

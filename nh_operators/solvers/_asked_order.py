@@ -1,0 +1,72 @@
+"""The asked order of a row solve's times: sorted for the solve, put back for the answer.
+
+:func:`~nh_operators.solvers.rows.solve_rows` integrates each row through its times in
+increasing order (a plan may add a working time and reduce times into one period,
+:mod:`.periodic`), then answers in the order the times were asked. These three steps
+do that bookkeeping, apart from the solve.
+"""
+
+import numpy as np
+
+__all__ = ["asked_columns", "in_asked_order", "sorted_times"]
+
+
+def sorted_times(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's times sorted.
+
+    Args:
+        t: (M,) times shared by the ``n`` rows, or (N, M) per row.
+        n: the number of rows N.
+
+    Returns:
+        (asked_order, ts): the order that sorts each row (N, M) and the sorted times
+        (N, M); broadcast views of one row when ``t`` is shared.
+    """
+    if t.ndim == 1:  # times shared by every row: sort once
+        asked_order = np.broadcast_to(np.argsort(t, kind="stable"), (n, t.size))
+        ts = np.broadcast_to(t[asked_order[0]], (n, t.size))
+    else:
+        asked_order = np.argsort(t, axis=1, kind="stable")
+        ts = np.take_along_axis(t, asked_order, axis=1)
+    return asked_order, ts
+
+
+def asked_columns(q: np.ndarray, p: np.ndarray, column: np.ndarray | None,
+                  m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(q, p) at the M sorted asked times, from the states at the working times.
+
+    Args:
+        q, p: (N, W) the states at the working times.
+        column: (N, M + 1) the working column of each sorted asked time, or None when
+            the working times are the asked ones.
+        m: the number of asked times M.
+
+    Returns:
+        (q, p), each (N, M); ``q`` and ``p`` themselves when ``column`` is None.
+    """
+    if column is None:  # the work columns are the asked ones
+        return q, p
+    return (np.take_along_axis(q, column[:, :m], 1),
+            np.take_along_axis(p, column[:, :m], 1))
+
+
+def in_asked_order(qa: np.ndarray, pa: np.ndarray, asked_order: np.ndarray,
+                   ndim: int) -> tuple[np.ndarray, np.ndarray]:
+    """The states at the sorted times put back in the asked order.
+
+    Args:
+        qa, pa: (N, M) the states at the sorted asked times.
+        asked_order: (N, M) the order of :func:`sorted_times`.
+        ndim: 1 when the times were shared by every row (one order for all), else 2.
+
+    Returns:
+        (q, p), each a new (N, M) array in the asked order.
+    """
+    n, m = qa.shape
+    q_final, p_final = np.empty((n, m)), np.empty((n, m))
+    if ndim == 1:
+        q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa
+    else:
+        np.put_along_axis(q_final, asked_order, qa, 1)
+        np.put_along_axis(p_final, asked_order, pa, 1)
+    return q_final, p_final
