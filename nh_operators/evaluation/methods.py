@@ -157,7 +157,8 @@ class NeuralMethod(Method):
         the only one a network without ``initial_state`` knows)."""
         from ..models import predict
 
-        V = sensor_values(V)
+        if not (type(V) is np.ndarray and V.dtype == np.float64):
+            V = sensor_values(V)  # a float64 array is only read here, and by predict
         t = _network_times(self.name, t, self.domain_check)
         if self.domain_check:
             _warn_out_of_domain(self.name, V, self.domain)
@@ -167,7 +168,7 @@ class NeuralMethod(Method):
             state = [np.broadcast_to(np.asarray(a, dtype=np.float64), (n,)) for a in (q0, p0)]
             stacked = np.column_stack([rows, *state])
             V = stacked[0] if np.ndim(V) == 1 else stacked   # one potential stays one
-        elif np.any(np.asarray(q0) != 0) or np.any(np.asarray(p0) != 0):
+        elif not _at_rest(q0, p0):
             raise ValueError(f"{self.name} was trained from the state (0, 0) only; a network "
                              "built with initial_state=True reads other states")
         return predict(self.net, V, t, batch_size=self.batch_size)
@@ -182,19 +183,29 @@ class NeuralMethod(Method):
 def _network_times(name, t, domain_check):
     """Query times a network may be asked: finite, ≥ 0, and in its training range [0, 2]
     (beyond it only when the domain check is off: extrapolation asked for explicitly)."""
+    if t is TIMES:  # the grid itself (read-only): it passes every check
+        return t
     t = np.asarray(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[1] == 1:
         t = t[:, 0]
     if t.ndim != 1 or t.size == 0:
         raise ValueError(f"{name}: t must have shape (M,) or (M, 1) with M ≥ 1, got {t.shape}")
-    if not np.all(np.isfinite(t)) or t.min() < 0:
+    lo, hi = t.min(), t.max()  # a NaN or an infinity shows in one of them
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0:
         bad = t[~(np.isfinite(t) & (t >= 0))][0]
         raise ValueError(f"{name}: times must be finite and ≥ 0, got {bad}")
-    if domain_check and t.max() > TIMES[-1] + 1e-12:
+    if domain_check and hi > TIMES[-1] + 1e-12:
         raise ValueError(f"{name} was trained on t ∈ [0, {TIMES[-1]:g}] and is not asked "
-                         f"beyond it (got t = {t.max():g}); use nh.solve for later times, or "
+                         f"beyond it (got t = {hi:g}); use nh.solve for later times, or "
                          "NeuralMethod(..., domain_check=False) to extrapolate")
     return t
+
+
+def _at_rest(q0: object, p0: object) -> bool:
+    """Whether the starting states are all (0, 0); plain numbers without NumPy."""
+    if type(q0) in (int, float) and type(p0) in (int, float):
+        return q0 == 0 and p0 == 0
+    return not (np.any(np.asarray(q0) != 0) or np.any(np.asarray(p0) != 0))
 
 
 def _warn_out_of_domain(name, V, domain=None):

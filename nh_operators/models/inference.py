@@ -17,7 +17,8 @@ def batched_forward(net, V, t, batch_size):
 
     The one place that runs a network over many potentials: inputs are moved to the
     network's device and dtype, ``net.eval()`` holds for the pass and the previous
-    mode is restored afterwards, and everything runs under ``torch.no_grad()``.
+    mode is restored afterwards, and everything runs under ``torch.no_grad()``. A NumPy
+    batch reaches the network as a tensor of its own (converted, or else copied).
 
     Args:
         net: a network taking ``(V, t)``.
@@ -41,8 +42,10 @@ def batched_forward(net, V, t, batch_size):
     try:
         with torch.no_grad():
             for start in range(0, len(V), batch_size):
-                v = torch.as_tensor(V[start:start + batch_size], dtype=param.dtype,
-                                    device=param.device)
+                rows = V[start:start + batch_size]
+                v = torch.as_tensor(rows, dtype=param.dtype, device=param.device)
+                if isinstance(rows, np.ndarray) and v.data_ptr() == rows.ctypes.data:
+                    v = v.clone()  # no network gets the caller's memory to write on
                 yield start, net((v, t))
     finally:
         if switch:
@@ -183,10 +186,12 @@ def predict(net: Any, V: Any, t: ArrayLike, batch_size: int = 1000
         True
     """
     net = as_network(net)
-    V = sensor_values(V)
+    if not (type(V) is np.ndarray and V.dtype == np.float64 and V.flags.writeable):
+        V = sensor_values(V)  # a copy; a writeable float64 array is read as it is
     single = V.ndim == 1
     if single:
         V = V[None]
+    grid = t is TIMES  # the training grid itself: finite, and on the grid
     t = np.array(t, dtype=np.float64)
     if t.ndim == 2 and t.shape[1] == 1:
         t = t[:, 0]
@@ -194,11 +199,11 @@ def predict(net: Any, V: Any, t: ArrayLike, batch_size: int = 1000
         raise ValueError(f"V must have shape (N, n_sensors), got {V.shape}")
     if t.ndim != 1 or t.size == 0:
         raise ValueError(f"t must have shape (M,) or (M, 1) with M ≥ 1, got {t.shape}")
-    if not (np.all(np.isfinite(V)) and np.all(np.isfinite(t))):
+    if not (np.all(np.isfinite(V)) and (grid or np.all(np.isfinite(t)))):
         raise ValueError("V and t must be finite")
     if int(batch_size) != batch_size or batch_size < 1:
         raise ValueError(f"batch_size must be a positive integer, got {batch_size}")
-    on_grid = _is_training_grid(t)
+    on_grid = grid or _is_training_grid(t)
     coupled = bool(getattr(net, "query_coupled", False))
     if coupled and not on_grid:
         _check_in_grid_range(t, f"{type(net).__name__} couples its query times, so it is run "

@@ -129,3 +129,36 @@ def test_query_coupling_is_declared_truthfully_and_predict_is_pointwise(name, co
                    torch.as_tensor(nh.TIMES[idx, None], dtype=torch.float32)))
     gap = np.abs(raw[..., 0].double().numpy() - q_full[:, idx]).max()
     assert (gap > 1e-4) if coupled else (gap < 1e-5)
+
+
+def test_neural_method_fast_paths_keep_every_answer_warning_and_error():
+    """The grid nh.TIMES, a float64 array and resting starts take shortcuts (no copies, no
+    re-checks); a copy of the grid, a list and NumPy starts take the general path."""
+    m = nh.pretrained("deeponet-alg1")
+    space = nh.BoundedPotentialSpace(seed=12)
+    V = space.potentials(space.random(6)).V(nh.SENSORS)
+    q, p = m(V, nh.TIMES)
+    for args in [(V, nh.TIMES.copy()), (V.tolist(), list(nh.TIMES)),
+                 (V, nh.TIMES[:, None], np.zeros(6), np.float64(0.0))]:
+        q2, p2 = m(*args)
+        assert q2.tobytes() == q.tobytes() and p2.tobytes() == p.tobytes()
+    qp, pp = nh.predict(m, V, nh.TIMES)
+    assert qp.tobytes() == q.tobytes() and pp.tobytes() == p.tobytes()
+    before = V.copy()
+    m(V, nh.TIMES)
+    assert V.tobytes() == before.tobytes()                   # the input is only read
+    W = V.copy()
+    W[4] = 2 - 88 * nh.SENSORS * (1 - nh.SENSORS)            # dips to -20: out of range
+    with pytest.warns(nh.OutOfDomainWarning, match=r"V\[4\] \(1 of 6 rows\) has values "
+                      r"below -2\.08286 .*: min V = -20 in row 4") as record:
+        m(W, nh.TIMES)
+    assert record[0].filename == __file__                    # reported at the caller
+    with pytest.raises(ValueError, match="deeponet-alg1: times must be finite and ≥ 0, "
+                                         "got nan"):
+        m(V, [0.5, np.nan])
+    with pytest.raises(ValueError, match="is not asked beyond it \\(got t = 2.5\\)"):
+        m(V, [0.5, 2.5])
+    with pytest.raises(ValueError, match="trained from the state \\(0, 0\\) only"):
+        m(V, nh.TIMES, q0=np.array([0, 0, 0, 0, 0, 0.1]))
+    with pytest.raises(ValueError, match="trained from the state \\(0, 0\\) only"):
+        m(V, nh.TIMES, p0=-1)
