@@ -26,7 +26,8 @@ from .periodic import (DIRECT_HORIZON, HorizonPlan, PeriodError, default_interva
                        plan_horizon)
 from .schemes import MAX_STEPS, ORDERS, step_method
 
-__all__ = ["COARSE_START_TOL", "RESOLVED_STEP", "RowSolution", "RowSource", "row_source", "solve_rows"]
+__all__ = ["COARSE_START_TOL", "RESOLVED_STEP", "RowSolution", "RowSource", "row_source",
+           "solve_rows"]
 
 #: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
 #: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
@@ -37,9 +38,8 @@ RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
 #: From this tol up (every row of the call) the doubling starts one level coarser than
 #: :data:`RESOLVED_STEP`: that level enters the estimate only as the earlier pair's gap (a
 #: floor), the pair that must meet tol is resolved, and the answer is a level cheaper.
-#: Chosen on ``benchmarks/promise/classical_estimate.py --seed 3001`` (49,200 answers):
-#: below 1e-8 the coarse start let 4 answers miss tol (by up to 2.6×); from 1e-8 up the
-#: worst was 0.016 of tol.
+#: Chosen on ``benchmarks/promise/classical_estimate.py --seed 3001`` (49,200 answers): a
+#: coarse start below 1e-8 let 4 miss tol (by up to 2.6×); from 1e-8 up the worst was 0.016.
 COARSE_START_TOL = 1e-8
 
 
