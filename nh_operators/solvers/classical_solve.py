@@ -22,8 +22,8 @@ So:
 
 * the doubling starts at a step of at most :data:`~.rows.RESOLVED_STEP` (1/8 of the
   spacing of :data:`~nh_operators.TIMES`: the particle moves less than the sensor
-  spacing per step; from tol :data:`~.rows.COARSE_START_TOL` up, one level coarser,
-  which then only floors the estimate), and
+  spacing per step; from tol :data:`~.rows.COARSE_START_TOL` (``COARSER_START_TOL``)
+  up, one (two) levels coarser, whose coarsest only floors the estimate), and
 * the difference of the last two levels must be below tol, and so must the one before
   it shrunk at the method's rate (a chance agreement of the last two is caught by the
   earlier pair).

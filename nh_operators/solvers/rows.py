@@ -26,8 +26,8 @@ from .periodic import (DIRECT_HORIZON, HorizonPlan, PeriodError, default_interva
                        plan_horizon)
 from .schemes import MAX_STEPS, ORDERS, step_method
 
-__all__ = ["COARSE_START_TOL", "RESOLVED_STEP", "RowSolution", "RowSource", "row_source",
-           "solve_rows"]
+__all__ = ["COARSE_START_TOL", "COARSER_START_TOL", "RESOLVED_STEP", "RowSolution",
+           "RowSource", "row_source", "solve_rows"]
 
 #: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
 #: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
@@ -35,12 +35,10 @@ __all__ = ["COARSE_START_TOL", "RESOLVED_STEP", "RowSolution", "RowSource", "row
 #: used as evidence steps over the features of V.
 RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
 
-#: From this tol up (every row of the call) the doubling starts one level coarser than
-#: :data:`RESOLVED_STEP`: that level enters the estimate only as the earlier pair's gap (a
-#: floor), the pair that must meet tol is resolved, and the answer is a level cheaper.
-#: Chosen on ``benchmarks/promise/classical_estimate.py --seed 3001`` (49,200 answers): a
-#: coarse start below 1e-8 let 4 miss tol (by up to 2.6×); from 1e-8 up the worst was 0.016.
-COARSE_START_TOL = 1e-8
+#: From these tols up (all rows) the doubling starts 1 (2) levels coarser than
+#: :data:`RESOLVED_STEP`; the coarsest level only floors the estimate. Chosen on
+#: ``benchmarks/promise/classical_estimate.py --seed 3001`` (docs: solve, "A cheaper start").
+COARSE_START_TOL, COARSER_START_TOL = 1e-8, 1e-6
 
 
 @dataclass
@@ -285,8 +283,9 @@ def _level_grid(src, plan: HorizonPlan, ts, shared_times, method, tols):
     shared = shared_times and column is None
     interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
                 else default_interval(ts, periodic))
-    # level 1: steps of RESOLVED_STEP (twice that from COARSE_START_TOL up), `first` each
-    coarse = 1 if np.min(tols) >= COARSE_START_TOL else 0
+    # level 1: steps of RESOLVED_STEP (2× or 4× that at loose tols), `first` per interval
+    loosest = np.min(tols)
+    coarse = 2 if loosest >= COARSER_START_TOL else 1 if loosest >= COARSE_START_TOL else 0
     first = 2 ** np.maximum(np.ceil(np.log2(interval / RESOLVED_STEP) - 1e-9) - coarse,
                             0).astype(np.int64)
     # rows answered from one period: their work column m is T, whose return to the
