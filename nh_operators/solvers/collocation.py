@@ -172,7 +172,8 @@ def newton_collocation(dV: Force, d2V: Force, q_guess: np.ndarray, t_end: float,
     Example:
         >>> sol = newton_collocation(lambda q: 16 * (q - 0.5), lambda q: 16 + 0 * q,
         ...                          np.zeros(33), 2.0)
-        >>> sol.converged, abs(sol(np.array([1.0]))[0][0] - (0.5 - 0.5 * np.cos(4.0))) < 1e-10
+        >>> error = abs(sol(np.array([1.0]))[0][0] - (0.5 - 0.5 * np.cos(4.0)))
+        >>> bool(sol.converged), bool(error < 1e-10)
         (True, True)
     """
     q = np.array(q_guess, dtype=np.float64)
