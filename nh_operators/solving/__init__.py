@@ -9,7 +9,7 @@ from .._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
     "auto_solve": ["DEFAULT_TOL", "Solution", "solve"],
-    "many": ["ManySolution", "RowError", "solve_many"],
+    "many": ["ManySolution", "solve_many"],
     "answers": ["Candidate", "Truth", "Verdict"],
     "loader": ["ShippedNetwork", "load"],
     "calibration": ["Calibration"],

@@ -43,7 +43,7 @@ from .loader import load
 from .network_pass import Answers, NetworkRuns, pilot_order, record
 from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
 
-__all__ = ["CHUNK", "PILOT", "ManySolution", "RowError", "solve_many"]
+__all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192

@@ -73,7 +73,7 @@ def test_bad_rows_are_named(scene):
     with pytest.raises(ValueError,
                        match=r"row 2: the state \(q0 = 0.5, p0 = 3\) has energy") as err:
         nh.solve_many(V, [1.0], q0=0.5, p0=[0, 0, 3.0] + [0] * (len(V) - 3))
-    assert isinstance(err.value, nh.solving.RowError) and err.value.row == 2
+    assert isinstance(err.value, nh.solvers.RowError) and err.value.row == 2
     with pytest.raises(ValueError, match=r"t must have shape \(M,\) or \(N, M\)"):
         nh.solve_many(V, np.zeros((2, 3)))
 
