@@ -181,8 +181,7 @@ def calibrate_factors(name: str, dataset: Any, *, other: Any = None, n_ood: int 
     fine = refines(name)
     result: dict[str, Any] = {"quantile": quantile, "confidence": CONFIDENCE,
                               "dataset_checksum": dataset.checksum,
-                              "dataset_draw": dict(getattr(dataset, "generator", None)
-                                                   or {"draw": 1}).get("draw", 1),
+                              "dataset_draw": dataset.generator.get("draw", 1),
                               "ood_seed": ood_seed,
                               "limits": list(LIMITS), "initial_state": reads_state(name),
                               "families": {fam: _family_bounds(*sample, quantile, fine)

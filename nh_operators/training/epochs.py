@@ -82,8 +82,7 @@ class TrainingRun:
         self.device = dist.device
         self.checksum = checksum
         # the draw version of the training data (1: before draw 2, bytes CPU-dependent)
-        self.draw = int(dict(getattr(getattr(data, "rows", None), "generator", None)
-                             or {"draw": 1}).get("draw", 1))
+        self.draw = int(data.rows.generator.get("draw", 1))
         self.steps = data.steps_per_epoch(cfg["batch_size"])
         self.history, self.epoch_losses = [], []
         self.rng_state, self.diverged = None, None

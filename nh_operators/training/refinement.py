@@ -87,6 +87,14 @@ def refine(model: Any, potential: Any, t: np.ndarray = TIMES, *, steps: int = 10
     if method == "newton":
         from .newton_refinement import refine_newton
 
+        given = {name: value for name, value, default in (
+            ("steps", steps, 100), ("lr", lr, 1e-4), ("optimizer", optimizer, "adam"),
+            ("collocation", collocation, 200), ("parameters", parameters, None))
+            if value != default}
+        if given:
+            raise ValueError(f"method='newton' refines the trajectory, not the weights: "
+                             f"{sorted(given)} do not apply to it")
+
         return refine_newton(model, potential, t, tol=tol, q0=q0, p0=p0, knots=knots)
     if method != "weights":
         raise ValueError(f"method must be 'weights' or 'newton', got {method!r}")

@@ -58,6 +58,8 @@ def test_a_diverging_newton_keeps_the_network_answer(model):
 def test_newton_refinement_errors_are_named(model):
     with pytest.raises(ValueError, match=r"method must be 'weights' or 'newton'"):
         nh.refine(model, nh.PHYSICAL_POTENTIALS["sho"], method="bfgs")
+    with pytest.raises(ValueError, match=r"not the weights: \['lr', 'steps'\] do not apply"):
+        nh.refine(model, nh.PHYSICAL_POTENTIALS["sho"], method="newton", steps=5, lr=0.1)
     with pytest.raises(ValueError, match=r"times in \[0, 2\]"):
         nh.refine(model, nh.PHYSICAL_POTENTIALS["sho"], np.array([0.5, 3.0]),
                   method="newton")
