@@ -23,7 +23,7 @@ import torch
 from .._constants import V0
 from .._sensors import spline_matrix
 from .float64_buffers import Float64Buffers
-from .orbit_coordinates import SensorSpline, composite_rule, invert_row, invert_rows, orbit
+from .orbit_coordinates import SensorSpline, composite_rule, invert_row, orbit
 from .orbit_shape import edge_tables, shape_table
 
 __all__ = ["OrbitQuadrature", "RestQuadrature", "gauss_legendre", "period_quadrature"]
@@ -74,28 +74,61 @@ def period_quadrature(n_sensors: int = 100, nodes: int = 64) -> tuple[np.ndarray
 
 
 
-#: Rows from which :func:`invert_rows_parallel` runs on numba's threads (fewer: one thread,
-#: no launch cost).
+#: Rows from which :func:`rest_tables` runs on numba's threads (fewer: one thread, no
+#: launch cost).
 PARALLEL_FROM = 32
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _rest_row(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P, q_out, p_out):
+    """One row of :func:`rest_tables`, through the float64 scratch rows Q and P."""
+    invert_row(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P)
+    for g in range(Q.shape[0]):
+        q_out[g] = Q[g]
+        p_out[g] = P[g] / T
+
+
+@numba.njit(cache=True, nogil=True)
+def _rest_rows_serial(f, s, w, T, ends, cos_e, sin_e, gaps, q_out, p_out):
+    grid = q_out.shape[1]
+    Q, P = np.empty(grid), np.empty(grid)
+    for r in range(f.shape[0]):
+        _rest_row(f[r], s, w, T[r], ends, cos_e, sin_e, gaps, Q, P, q_out[r], p_out[r])
+
+
 @numba.njit(cache=True, nogil=True, parallel=True)
-def invert_rows_parallel(f, s, w, T, ends, cos_e, sin_e, gaps, grid):
-    """:func:`~.orbit_coordinates.invert_rows` with the rows shared among numba's threads:
-    each row is the same :func:`~.orbit_coordinates.invert_row`, so bit for bit the same.
+def _rest_rows_parallel(f, s, w, T, ends, cos_e, sin_e, gaps, q_out, p_out):
+    grid = q_out.shape[1]
+    for r in numba.prange(f.shape[0]):
+        Q, P = np.empty(grid), np.empty(grid)
+        _rest_row(f[r], s, w, T[r], ends, cos_e, sin_e, gaps, Q, P, q_out[r], p_out[r])
+
+
+def rest_tables(f: np.ndarray, s: np.ndarray, w: np.ndarray, T: np.ndarray,
+                edges: tuple[np.ndarray, ...], grid: int,
+                dtype: np.dtype | type = np.float64) -> tuple[np.ndarray, np.ndarray]:
+    """The rest scene's half-orbit tables, compiled: Q and abs(p) = P / T per row.
+
+    Each row is :func:`~.orbit_coordinates.invert_row` in float64, then written in
+    ``dtype`` (a float32 network reads its start tables without another pass over them);
+    from :data:`PARALLEL_FROM` rows on, the rows are shared among numba's threads, bit
+    for bit the same.
 
     Args:
-        f: (B, K) speeds' inverses at the nodes; s, w: (K,) the nodes and weights;
-        T: (B,) periods; ends, cos_e, sin_e, gaps: :func:`~.orbit_shape.edge_tables`;
+        f: (B, K) float64 speeds' inverses at the nodes; s, w: (K,) the nodes and
+            weights; T: (B,) periods; edges: :func:`~.orbit_shape.edge_tables`.
         grid: nodes of the half-phase.
+        dtype: the tables' dtype (float64 or float32).
 
     Returns:
-        (Q, P), each (B, grid) float64.
+        (Q, abs(p)), each (B, grid) in ``dtype``.
     """
     rows = f.shape[0]
-    Q, P = np.empty((rows, grid)), np.empty((rows, grid))
-    for r in numba.prange(rows):
-        invert_row(f[r], s, w, T[r], ends, cos_e, sin_e, gaps, Q[r], P[r])
+    Q, P = np.empty((rows, grid), dtype=dtype), np.empty((rows, grid), dtype=dtype)
+    kernel = (_rest_rows_parallel if rows >= PARALLEL_FROM and numba.get_num_threads() > 1
+              else _rest_rows_serial)
+    ends, cos_e, sin_e, gaps = edges
+    kernel(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P)
     return Q, P
 
 
@@ -147,31 +180,30 @@ class RestQuadrature(Float64Buffers):
         """
         return torch.rsqrt_(self._squared_speed(V)) @ self.period_weights
 
-    def rest_shape(self, V: torch.Tensor,
-                   grid: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    def rest_shape(self, V: torch.Tensor, grid: int, dtype: torch.dtype = torch.float64
+                   ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """The period and the computed half-orbit, the rule read backwards
         (:mod:`.orbit_shape`: a classical solve of the orbit in the sensor spline).
 
         Args:
             V: (B, m) sensor values.
             grid: nodes of the half-phase h ∈ [0, 1/2].
+            dtype: the dtype of the tables (computed in float64, then cast).
 
         Returns:
-            (T (B,), Q (B, grid), abs(p) (B, grid)), float64: q = Q(h), abs(p) at h.
-            Compiled on the CPU when no gradient is asked; torch formulas otherwise.
+            (T (B,) float64, Q (B, grid), abs(p) (B, grid) in ``dtype``): q = Q(h),
+            abs(p) at h. Compiled on the CPU when no gradient is asked
+            (:func:`rest_tables`); torch formulas otherwise.
         """
         s, w = self.nodes, self.weights
         f = self.jacobian * torch.rsqrt_(self._squared_speed(V))
         T = 2 * (f @ w)
         if V.device.type == "cpu" and not (torch.is_grad_enabled() and V.requires_grad):
-            ends, cos_e, sin_e, gaps = self.edges
-            invert = invert_rows_parallel if (V.shape[0] >= PARALLEL_FROM and
-                                              numba.get_num_threads() > 1) else invert_rows
-            Q, P = (torch.from_numpy(a) for a in invert(
-                f.numpy(), s.numpy(), w.numpy(), T.numpy(), ends, cos_e, sin_e, gaps, grid))
-        else:
-            Q, P = shape_table(f, s, w, T, grid)
-        return T, Q, P / T[:, None]
+            Q, P = rest_tables(f.numpy(), s.numpy(), w.numpy(), T.numpy(), self.edges, grid,
+                               torch.empty(0, dtype=dtype).numpy().dtype)
+            return T, torch.from_numpy(Q), torch.from_numpy(P)
+        Q, P = shape_table(f, s, w, T, grid)
+        return T, Q.to(dtype), (P / T[:, None]).to(dtype)
 
 
 class OrbitQuadrature(Float64Buffers):

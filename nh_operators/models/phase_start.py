@@ -101,7 +101,8 @@ class QuadratureStart(StartShape):
 
     def at_rest(self, quadrature: RestQuadrature, V: Tensor, grid: int,
                 harmonic: Sequence[Tensor]) -> tuple[Tensor, tuple[Tensor, ...]]:
-        T, Q, P = quadrature.rest_shape(V, grid)
+        # the tables in the network's dtype (its harmonic tables'): no cast later
+        T, Q, P = quadrature.rest_shape(V, grid, harmonic[0].dtype)
         return T, (Q, P)[:len(harmonic)]
 
     def shape_grid(self, grid: int) -> int:

@@ -114,11 +114,7 @@ class PhaseONet(BasisHeadNet):
         x = torch.cat([(V0 - V) / 2, torch.log(T).to(V.dtype)[:, None]], dim=1)
         coeffs = self.branch(x)                                   # (B, k · basis)
         tables = self.shape_tables(coeffs, start)                 # each (B, grid)
-        # the phase t / T in float64 when a time is far enough for float32's 6e-8
-        # relative error to move it (|t| > 16)
-        wide = torch.float64 if bool((t.abs() > 16).any()) else coeffs.dtype
-        u = torch.outer(torch.reciprocal(T).to(wide), t[:, 0].to(wide))
-        return torch.stack(self.read_half_phase(tables, u), dim=-1)
+        return self.read_orbit(tables, torch.reciprocal(T), t)
 
 
 def phaseonet(width: int = 128, depth: int = 2, basis: int = 32, grid: int = 256,

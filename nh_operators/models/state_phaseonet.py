@@ -109,8 +109,7 @@ class StatePhaseONet(BasisHeadNet):
         coeffs = self.branch(x)                                   # (B, 2 · basis)
         tables = self.shape_tables(coeffs, self.start.from_state(o, self.start_tables()))
         # the phase in float64: u0 + t / T
-        u = torch.outer(torch.reciprocal(T), t[:, 0].to(torch.float64)) + o["u0"][:, None]
-        Q, P = self.read_half_phase(tables, u)
+        Q, P = self.read_orbit(tables, torch.reciprocal(T), t, offset=o["u0"]).unbind(-1)
         dtype = coeffs.dtype
         L = (o["b"] - o["a"]).to(dtype)[:, None]                 # orbit coordinates → q, p
         q = o["a"].to(dtype)[:, None] + L * Q
