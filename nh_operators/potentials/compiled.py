@@ -14,6 +14,7 @@ float literal (``inf`` and ``nan`` become ``math.inf`` and ``math.nan``). The tr
 built by the whitelist parser, which keeps no names, attributes or strings from the text.
 """
 
+import functools
 import hashlib
 import math
 
@@ -113,7 +114,22 @@ def compile_expression(expr):
     """
     if not isinstance(expr, Expression):
         raise TypeError(f"expected a parsed Expression, got {type(expr).__name__}")
-    return _compile(_emit(expr._tree), _emit(expr._dtree))
+    return _compile(*_sources(expr))
+
+
+def _sources(expr: Expression) -> tuple[str, str]:
+    """The generated sources of V and V' of ``expr``, made once per expression (a solve
+    asks for them on every call; emitting them again cost tens of µs)."""
+    sources = expr.__dict__.get("_compiled_sources")
+    if sources is None:
+        sources = expr.__dict__["_compiled_sources"] = (_emit(expr._tree), _emit(expr._dtree))
+    return sources
+
+
+@functools.lru_cache(maxsize=None)
+def _physical_expression(name: str) -> Expression:
+    """The parsed formula of a physical potential (parsed once)."""
+    return parse_expression(_PHYSICAL_FORMULAS[name])
 
 
 #: The physical potentials that have a formula in the whitelist (SMFF evaluates a
@@ -209,8 +225,8 @@ def compiled_functions(potential, *, after=0):
         return None
     if key == "smff":
         return None if _deferred("smff", after) else (_smff_value, _smff_force)
-    expr = key if isinstance(key, Expression) else parse_expression(_PHYSICAL_FORMULAS[key])
-    sources = (_emit(expr._tree), _emit(expr._dtree))
+    expr = key if isinstance(key, Expression) else _physical_expression(key)
+    sources = _sources(expr)
     if sources not in _COMPILED and _deferred(sources, after):
         return None
     return compile_expression(expr)
