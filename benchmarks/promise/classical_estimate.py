@@ -24,10 +24,18 @@ divided by (ρ − 1)², ρ the observed ratio of the two gaps' square roots, ca
 credited only where ρ ≥ 4; times a safety S): how close each is to the truth, how often
 it is below it, and what it would accept.
 
+With ``--start K`` every tol starts the doubling K levels coarser than
+:data:`~nh_operators.solvers.start_level.RESOLVED_STEP` (K = 0…4; by default each tol starts where
+:func:`~nh_operators.solvers.start_level.start_coarseness` says): how the thresholds
+``COARSE_START_TOL``, ``COARSER_START_TOL`` and ``COARSEST_START_TOL`` are chosen, each on
+a seed of its own (3001; 5001 for the third), then checked with all of them in place on a
+fresh one (4001; 6001).
+
 Run it with::
 
     python benchmarks/promise/classical_estimate.py [--size 100] [--draws 5] [--seed 2001]
-        [--tols 1e-2 1e-4 1e-6 1e-8 1e-10] [--out classical_estimate.json] [--rules]
+        [--tols 1e-2 1e-4 1e-6 1e-8 1e-10] [--start K] [--out classical_estimate.json]
+        [--rules]
 """
 
 import argparse
@@ -42,10 +50,26 @@ from nh_operators.evaluation import device_info, loss_per_sample
 from nh_operators.potentials import ood_potentials
 from nh_operators.solvers import random_states
 from nh_operators.solvers import rows as solver_rows
+from nh_operators.solvers import start_level
 from nh_operators.solvers.rows import row_source
 from nh_operators.training import write_atomic
 
 FINE = 4096  # substeps of the fixed-step truth
+
+
+def force_start(levels: int) -> None:
+    """Make every tol start ``levels`` levels coarser than ``RESOLVED_STEP`` (this
+    process only; 4: a first step of two output intervals).
+
+    Args:
+        levels: 0 to 4.
+
+    Raises:
+        ValueError: ``levels`` out of that range.
+    """
+    if not 0 <= levels <= 4:
+        raise ValueError(f"--start must be 0 to 4, got {levels}")
+    start_level.START_TOLS = (0.0,) * levels
 
 
 def families(size, seed):
@@ -91,7 +115,7 @@ def measure(size, draws, seed, tols):
                 records[tol].append((true, sol.error_estimate, sol.substeps,
                                      np.full(len(true), seconds / len(true))))
         for tol in tols:
-            true, est, sub, sec = (np.concatenate(c) for c in zip(*records[tol]))
+            true, est, sub, sec = (np.concatenate(c) for c in zip(*records[tol], strict=True))
             moving = true > 0  # a particle at rest on a flat start is answered exactly
             ratio = est[moving] / true[moving]
             rows.append({"family": name, "tol": tol, "n": int(true.size),
@@ -183,7 +207,7 @@ def replay(size, draws, seed, tols):
             true = np.stack([loss_per_sample(*lv[s], q_ref, p_ref)["L_tot"] for s in subs], 1)
             gaps = np.stack([0.5 * np.mean((lv[b][0] - lv[a][0]) ** 2
                                            + (lv[b][1] - lv[a][1]) ** 2, 1)
-                             for a, b in zip(subs, subs[1:])], 1)
+                             for a, b in zip(subs, subs[1:], strict=False)], 1)
             runs.setdefault(name, []).append((gaps, true))
     rows = []
     for name, parts in runs.items():
@@ -230,7 +254,11 @@ def main():
     ap.add_argument("--out", help="also write the rows as JSON (atomically)")
     ap.add_argument("--rules", action="store_true",
                     help="replay every level and compare estimate rules instead")
+    ap.add_argument("--start", type=int, help="start every tol this many levels coarser "
+                    "than RESOLVED_STEP (0-4; default: start_coarseness(tol))")
     args = ap.parse_args()
+    if args.start is not None:
+        force_start(args.start)
     if args.rules:
         rows = replay(args.size, args.draws, args.seed, args.tols)
         print(rules_markdown(rows))

@@ -24,9 +24,10 @@ __getattr__, __dir__, __all__ = attach(__name__, {
                    "ResolutionWarning", "check_energy", "check_formula", "check_resolution_of",
                    "spline_curvature", "spline_drift"],
     "row_error": ["RowError", "about_row"],
-    "rows": ["COARSE_START_TOL", "COARSER_START_TOL", "RowSolution", "RowSource", "row_source",
-             "solve_rows"],
+    "rows": ["RowSolution", "RowSource", "row_source", "solve_rows"],
     "schemes": ["MAX_STEPS", "METHODS", "ORDERS"],
+    "start_level": ["COARSEST_START_TOL", "COARSER_START_TOL", "COARSE_START_TOL",
+                    "START_TOLS", "start_coarseness"],
     "states": ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",
                "state_arrays"],
 })

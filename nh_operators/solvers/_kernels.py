@@ -14,6 +14,7 @@ of the steppers. The sensors' spline coefficients come from the one sensor-splin
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from .._sensors import notaknot_params  # noqa: F401 (the solvers' spline kernel)
 from ..potentials._spline_kernels import FORCE, JIT, JIT_FN_ARG, specialised
@@ -21,10 +22,13 @@ from ..potentials._spline_kernels import FORCE, JIT, JIT_FN_ARG, specialised
 # -------------------------------------------------------------- fixed-step solvers
 
 
-@numba.njit(**JIT)
+@register_jitable
 def hermite(theta, h, y0, d0, y1, d1):
     """The cubic Hermite interpolant at ``theta`` ∈ [0, 1] of a step of size ``h`` from
-    (value y0, derivative d0) to (y1, d1)."""
+    (value y0, derivative d0) to (y1, d1).
+
+    Compiled into the kernels that call it, plain Python when called from Python (the
+    uncompiled ``trajectory_fixed.py_func`` of a first solve then starts no compiler)."""
     t2 = theta * theta
     t3 = t2 * theta
     return ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + theta) * h * d0
@@ -236,6 +240,9 @@ def level_gap(q, p, q2, p2, w):
         wi = w[i] if own else w[0]
         s = 0.0
         for j in range(q.shape[1]):
-            s += wi[j] * ((q2[i, j] - q[i, j]) ** 2 + (p2[i, j] - p[i, j]) ** 2)
+            # products, not ** 2: plain Python (``level_gap.py_func``) then computes the
+            # same numbers as the compiled kernel
+            dq, dp = q2[i, j] - q[i, j], p2[i, j] - p[i, j]
+            s += wi[j] * (dq * dq + dp * dp)
         out[i] = 0.5 * s
     return out

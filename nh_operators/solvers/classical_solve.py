@@ -20,10 +20,11 @@ the observed rate (the difference over 15²) is right at the median but 10–1,0
 the tail. Coarse steps can also step over a narrow feature of V alike at every level.
 So:
 
-* the doubling starts at a step of at most :data:`~.rows.RESOLVED_STEP` (1/8 of the
+* the doubling starts at a step of at most :data:`~.start_level.RESOLVED_STEP` (1/8 of the
   spacing of :data:`~nh_operators.TIMES`: the particle moves less than the sensor
-  spacing per step; from tol :data:`~.rows.COARSE_START_TOL` (``COARSER_START_TOL``)
-  up, one (two) levels coarser, whose coarsest only floors the estimate), and
+  spacing per step; from tol :data:`~.start_level.COARSE_START_TOL` (``COARSER_START_TOL``,
+  ``COARSEST_START_TOL``) up, one (two, three) levels coarser, whose coarsest only
+  floors the estimate: :func:`~.start_level.start_coarseness`), and
 * the difference of the last two levels must be below tol, and so must the one before
   it shrunk at the method's rate (a chance agreement of the last two is caught by the
   earlier pair).
@@ -42,7 +43,8 @@ import numpy as np
 
 from .._backend import single_threaded
 from ..potentials.coerce import as_potential
-from .rows import RESOLVED_STEP, row_source, solve_rows
+from .rows import row_source, solve_rows
+from .start_level import RESOLVED_STEP
 from .schemes import ORDERS, check_times
 from .states import check_states, state_arrays
 

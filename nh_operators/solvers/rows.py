@@ -14,7 +14,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._constants import TIMES
 from ..potentials._spline_kernels import bspline_force, bspline_value, grid_force, grid_value
 from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
@@ -25,21 +24,9 @@ from ._rowwise import rowwise
 from .periodic import (DIRECT_HORIZON, HorizonPlan, PeriodError, default_interval, phase_error,
                        plan_horizon)
 from .schemes import MAX_STEPS, ORDERS, step_method
+from .start_level import RESOLVED_STEP, start_coarseness
 
-__all__ = ["COARSE_START_TOL", "COARSER_START_TOL", "RESOLVED_STEP", "RowSolution",
-           "RowSource", "row_source", "solve_rows"]
-
-#: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
-#: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
-#: it moves the particle 0.007 per step, less than the sensor spacing 1/99, so no level
-#: used as evidence steps over the features of V.
-RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
-
-#: From these tols up (all rows) the doubling starts 1 (2) levels coarser than
-#: :data:`RESOLVED_STEP`; the coarsest level only floors the estimate. Chosen on
-#: ``benchmarks/promise/classical_estimate.py --seed 3001`` (docs: solve, "A cheaper start").
-COARSE_START_TOL, COARSER_START_TOL = 1e-8, 1e-6
-
+__all__ = ["RowSolution", "RowSource", "row_source", "solve_rows"]
 
 @dataclass
 class RowSource:
@@ -253,7 +240,8 @@ class _Grid:
     Attributes:
         work: (N, W) sorted working times (of :func:`~.periodic.plan_horizon`).
         interval: (N,) the output interval over ``first``: level s takes s steps in it.
-        first: (N,) int64, the substeps per output interval of level 1.
+        first: (N,) float, the substeps per output interval of level 1 (a power of 2;
+            below 1 only from a start 4 levels coarser, whose accepted levels are whole).
         shared: every row has row 0's times and grid (the lockstep kernel).
         weight: (1, W) for every row, or (N, W): the share of each working time in the
             mean gap of two levels.
@@ -283,11 +271,11 @@ def _level_grid(src, plan: HorizonPlan, ts, shared_times, method, tols):
     shared = shared_times and column is None
     interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
                 else default_interval(ts, periodic))
-    # level 1: steps of RESOLVED_STEP (2× or 4× that at loose tols), `first` per interval
-    loosest = np.min(tols)
-    coarse = 2 if loosest >= COARSER_START_TOL else 1 if loosest >= COARSE_START_TOL else 0
-    first = 2 ** np.maximum(np.ceil(np.log2(interval / RESOLVED_STEP) - 1e-9) - coarse,
-                            0).astype(np.int64)
+    # level 1: steps of RESOLVED_STEP (2^coarse × that at loose tols), `first` per
+    # interval: at most 1 step per interval up to coarse 3, 2^(coarse-3) intervals beyond
+    coarse = start_coarseness(float(np.min(tols)))
+    first = 2.0 ** np.maximum(np.ceil(np.log2(interval / RESOLVED_STEP) - 1e-9) - coarse,
+                              min(0, 3 - coarse))
     # rows answered from one period: their work column m is T, whose return to the
     # start is checked after the solve; other rows have a copy of their last time there
     with_t = periodic & np.isfinite(plan.period)
@@ -341,10 +329,13 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
     previous = np.full(n, np.inf)
     substeps = 1
     history: list[tuple[int, float]] = []
+    # a Python force steps in Python, and so does its gap: a first solve of a formula
+    # then starts no compiler (numba's first compiled call costs about 0.3 s)
+    gap = level_gap if src.compiled else level_gap.py_func
     while rows.size:
         q2, p2 = _level(src, rows, grid.work, grid.interval, q0s, p0s, 2 * substeps,
                         grid.method, grid.shared)
-        raw = level_gap(q, p, q2, p2, grid.weight if grid.weight.shape[0] == 1 else
+        raw = gap(q, p, q2, p2, grid.weight if grid.weight.shape[0] == 1 else
                         grid.weight[rows])
         substeps *= 2
         # the gap to the previous level, and the one before it shrunk at the method's
@@ -352,7 +343,7 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
         # gap alone is never evidence)
         estimate = np.maximum(raw, previous[rows] / grid.rate) * grid.safety
         if n == 1:
-            history.append((substeps * int(grid.first[0]), float(estimate[0])))
+            history.append((int(substeps * grid.first[0]), float(estimate[0])))
         done = estimate <= solve_tol[rows]
         if 2 * substeps * grid.first.max() > max_substeps:
             if not done.all():
