@@ -5,6 +5,7 @@
     python benchmarks/cost/fast_operator.py report --dataset paper --data-dir DIR --out DIR
     python benchmarks/cost/fast_operator.py solve --dataset paper [--size 10000] [--seed 4242]
                                              [--also RUN_DIR] [--head-to-head-only]
+                                             [--no-head-to-head] [--tols 1e-3,1e-6,1e-9]
 
 ``train`` trains the asked rows (all by default) through ``nh.train`` (DeepXDE's loop)
 into ``OUT/<dataset>-<row>/``, one thread per process: run two processes with
@@ -18,7 +19,7 @@ and prints a markdown table. Inference-only rows (bfloat16, TorchScript,
 
 ``solve`` measures what the shipped networks save ``nh.solve_many`` on ``--size`` fresh
 potentials of the dataset's distribution given as sensor values, at the 100 standard
-times and tol 1e-3, 1e-4, 1e-5: ``method="auto"`` (a network where its calibrated
+times and tol 1e-3, 1e-4, 1e-5 (``--tols``): ``method="auto"`` (a network where its calibrated
 estimate meets tol) against ``method="rk4"`` (the classical solver alone), the median of
 ``--solve-repeats`` calls of each, alternating, after :func:`nh_operators.preload` and a
 warm-up on 50 rows, one thread. Every answer is checked against
@@ -299,7 +300,8 @@ def solve(args):
     q_spline, p_spline = nh.integrate_sensors(V, nh.TIMES, substeps=256,
                                               check_resolution=False)
     name = f"phaseonet-{args.dataset}"
-    _head_to_head(name, V[:1000], q[:1000], p[:1000], args.repeats, args.also)
+    if not args.no_head_to_head:
+        _head_to_head(name, V[:1000], q[:1000], p[:1000], args.repeats, args.also)
     if args.head_to_head_only:
         return
     print(f"\n{args.size} fresh {args.dataset} potentials (seed {args.seed}) as sensor "
@@ -313,7 +315,7 @@ def solve(args):
         nh.preload()
         nh.solve_many(V[:50], nh.TIMES, tol=1e-3)
         nh.solve_many(V[:50], nh.TIMES, tol=1e-3, method="rk4")
-        for tol in (1e-3, 1e-4, 1e-5):
+        for tol in args.tols:
             seconds = {"rk4": [], "auto": []}
             for _ in range(args.solve_repeats):
                 for method in seconds:
@@ -328,7 +330,7 @@ def solve(args):
                           + ((auto.p - p_spline) ** 2).mean(1))
             share = float(np.mean(auto.neural))  # any network: a row the other one
             # rejects goes on to this one, and the other may accept some rows
-            print(f"| {tol:g} | {classical:.2f} | {neural:.2f} | {classical / neural:.2f}× | "
+            print(f"| {tol:g} | {classical:.3f} | {neural:.3f} | {classical / neural:.2f}× | "
                   f"{share:.1%} | {true.max() / tol:.2g} |", flush=True)
 
 
@@ -350,6 +352,11 @@ def main():
                     help="solve: a run directory timed beside the shipped network")
     ap.add_argument("--head-to-head-only", action="store_true",
                     help="solve: only the head-to-head table")
+    ap.add_argument("--no-head-to-head", action="store_true",
+                    help="solve: skip the head-to-head table (only solve_many's)")
+    ap.add_argument("--tols", type=lambda s: [float(x) for x in s.split(",")],
+                    default=[1e-3, 1e-4, 1e-5],
+                    help="solve: the tolerances, comma-separated (default 1e-3,1e-4,1e-5)")
     args = ap.parse_args()
     args.rows = args.rows.split(",")
     unknown = sorted(set(args.rows) - set(ROWS))

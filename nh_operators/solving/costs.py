@@ -4,16 +4,20 @@ Costs come from a shipped model's calibration
 (:class:`~nh_operators.solving.calibration.Calibration`, measured by
 :func:`~nh_operators.solving.calibrate_pretrained` on the machine that calibrated it):
 one call's seconds, per-row seconds inside ``solve_many``, the classical ones per kind of
-input and per tolerance, and the classical ones for a short horizon.
+input and per tolerance, and the classical ones for a short horizon; and what the
+classical solve and the networks measured per row in this process
+(:func:`measured_seconds`).
 """
 
 import math
+import time
 
 import numpy as np
 
 from .._constants import TIMES
 
-__all__ = ["SHORT_HORIZON", "horizon_key", "horizon_share"]
+__all__ = ["SHORT_HORIZON", "horizon_key", "horizon_share", "measured_seconds",
+           "remember_seconds"]
 
 #: The latest time of the calibration's short classical timing (the other is the grid's
 #: end, t = 2).
@@ -44,3 +48,35 @@ def horizon_key(t: np.ndarray) -> float:
         0.8
     """
     return math.ceil(10 * float(np.max(t)) - 1e-9) / 10
+
+
+
+#: Seconds per row measured in this process, by the caller's key, with when
+#: (:func:`time.monotonic`): ``solve_many``'s classical passes and its pilot's networks.
+_MEASURED: dict[tuple, tuple[float, float]] = {}
+
+
+def remember_seconds(key: tuple, seconds: float) -> None:
+    """Record that rows of ``key`` (e.g. a classical pass at one tolerance, integrator,
+    input kind and horizon; a network at one tolerance) took ``seconds`` per row now."""
+    _MEASURED[key] = (float(seconds), time.monotonic())
+
+
+def measured_seconds(key: tuple, max_age: float = math.inf,
+                     default: float = math.inf) -> float:
+    """The seconds per row last recorded for ``key`` (:func:`remember_seconds`) at most
+    ``max_age`` seconds ago, or ``default`` where none was.
+
+    ``solve_many``'s pilot takes the smaller of the classical cost recorded so and the
+    one it measures on a few rows of its own (a probe of a few rows pays more than its
+    share of a call's fixed costs, and a first call may find caches cold: a classical
+    cost measured too high would let a network that does not pay go on), and does not
+    try again, for a while, a network it measured too dear.
+
+    Example:
+        >>> remember_seconds(("example",), 2e-5)
+        >>> measured_seconds(("example",)), measured_seconds(("other",), default=0.0)
+        (2e-05, 0.0)
+    """
+    seconds, when = _MEASURED.get(key, (default, -math.inf))
+    return seconds if time.monotonic() - when <= max_age else default

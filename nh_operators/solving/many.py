@@ -7,10 +7,14 @@ tolerance, a shipped network is tried on the rows where :func:`solve` would try 
 (times in [0, 2], sensor values inside its domain; the rows at (0, 0) go to the networks
 trained at rest, the others to the networks that read a starting state), each row going
 to the cheapest network whose domain holds it (and on to the next where its estimate
-fails; from 2 · :data:`PILOT` rows on, every candidate first answers the same
-:data:`PILOT` rows, and their results there choose which networks go on and in which
-order), its prediction kept where its own estimate meets the tolerance, and every other
-row is solved classically — all classical rows together, in one parallel numba kernel
+fails), its prediction kept where its own estimate meets the tolerance, and every other
+row is solved classically. From 2 · :data:`PILOT` rows on, costs are measured, not
+trusted: a quarter of :data:`PILOT` rows are solved classically first and timed, the
+candidates are then tried on :data:`PILOT` rows, timed, and a network goes on only where
+what it accepted there pays for what it cost there; networks that do not go on may
+spend at most :data:`PILOT_BUDGET` of the classical cost, so ``auto`` is never much
+slower than ``classical`` (:func:`~.network_pass.pilot_order`). Rows left are solved
+classically — all classical rows together, in one parallel numba kernel
 per substep level (:func:`~nh_operators.solvers.rows.solve_rows`), in chunks with a
 progress bar when N is large. A classical row gives the same numbers as :func:`solve` on
 that row.
@@ -23,6 +27,7 @@ from __future__ import annotations
 import functools
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,10 +42,10 @@ from ..solvers.schemes import check_times
 from ..solvers.states import check_states, state_arrays
 from .answers import MAX_SUBSTEPS, row_truths
 from .auto_solve import solve
-from .costs import horizon_key
+from .costs import horizon_key, measured_seconds, remember_seconds
 from .kinds import InputKind
 from .loader import load
-from .network_pass import Answers, NetworkRuns, pilot_order, record
+from .network_pass import Answers, NetworkRuns, run_pilot
 from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
 
 __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
@@ -48,11 +53,15 @@ __all__ = ["CHUNK", "PILOT", "ManySolution", "solve_many"]
 #: Classical rows per kernel call (memory stays bounded; the progress bar counts them).
 CHUNK = 8192
 
-#: Where at least twice this many rows may go to a network, every candidate first
-#: answers the same this many (spread over them); a network goes on only if the rows it
-#: accepted there, of those no network before it accepted, pay for its cost
-#: (:func:`_pilot_order`).
+#: Where at least twice this many rows may go to a network, the candidates are first
+#: tried on this many (spread over them), one after the other on the rows no network
+#: before accepted; a network goes on only if the rows it accepted there pay for what it
+#: cost there, measured (:func:`~.network_pass.pilot_order`).
 PILOT = 512
+#: Networks that do not go on may spend at most this share of the classical cost of the
+#: call's free rows in the pilot: what ``auto`` may lose to classical where no network
+#: pays.
+PILOT_BUDGET = 0.03
 
 
 #: Rows from which a progress bar is shown (``progress=None``).
@@ -211,13 +220,22 @@ def _solve_many(potentials, t, q0, p0, tol, method, progress, start):
     answers = Answers(np.empty((n, m)), np.empty((n, m)), np.zeros(n),
                       np.full(n, CLASSICAL.get(method, "rk4"), dtype=object),
                       np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
-    tried = []
+    tried, integrator = [], CLASSICAL.get(method, "rk4")
+    substeps, period = np.zeros(n, dtype=np.int64), np.full(n, np.nan)
+    done = np.zeros(n, dtype=bool)  # rows already solved classically (a pilot's probe)
+
+    def probe(rows: np.ndarray) -> float:
+        return _classical_probe(call, rows, integrator, target, answers, substeps, period,
+                                done)
+
     names = _candidates(call, method, tol, networks)
     if names:
-        _network_pass(call, names, method, tol, target, answers, tried)
-    substeps, period = _classical_pass(call, np.flatnonzero(~answers.neural),
-                                       CLASSICAL.get(method, "rk4"), target, answers,
-                                       progress)
+        _network_pass(call, names, method, tol, target, answers, tried, probe)
+    # no row went to a network: all rows in one pass (views, not copies; the probe's
+    # rows come out the same, row by row)
+    left = ~answers.neural & ~done if answers.neural.any() else ~answers.neural
+    _classical_pass(call, np.flatnonzero(left), integrator, target, answers, substeps,
+                    period, progress)
     converged = answers.estimate <= target
     if method in networks and tol is not None and not converged.all():
         bad = np.flatnonzero(~converged)
@@ -275,10 +293,13 @@ def _candidates(call: _Call, method: str, tol: float | None,
 
 
 def _network_pass(call: _Call, names: list[str], method: str, tol: float | None,
-                  target: float, answers: Answers, tried: list) -> None:
+                  target: float, answers: Answers, tried: list,
+                  probe: Callable[[np.ndarray], float]) -> None:
     """Networks ``names`` answer the rows they may (in ``answers``, in place): each row
     goes to the first whose estimate meets ``target``; from 2 · :data:`PILOT` free rows on
-    (``auto``), a pilot chooses which networks go on, in which order."""
+    (``auto``), a pilot decides which networks go on, on costs measured there
+    (:func:`~.network_pass.run_pilot`; ``probe(rows)`` solves rows classically and
+    returns the seconds per row)."""
     n, t, auto = call.n, call.t, method == "auto"
     values = call.values
     rest = (call.q0s == 0.0) & (call.p0s == 0.0)
@@ -291,55 +312,47 @@ def _network_pass(call: _Call, names: list[str], method: str, tol: float | None,
                 if auto else free.copy() for name in names}
     runs = NetworkRuns(values, call.src, call.kind, t, call.q0s, call.p0s,
                        target if auto else np.inf, answers)
-    order, pilot = names, np.zeros(n, dtype=bool)
+    order = names
     if auto and tol is not None and free.sum() >= 2 * PILOT:  # auto tries networks at a tol
-        order = _pilot(runs, names, eligible, pilot, call, tol, tried)
-    for name in order:
-        part = np.flatnonzero(free & eligible[name] & ~pilot)
+        order = run_pilot(runs, names, eligible, call.kind, tol, tried, probe, PILOT,
+                          PILOT_BUDGET)
+    for name in order:  # each on the free rows it may answer and has not answered yet
+        seen = runs.seen.get(name)
+        part = np.flatnonzero(free & eligible[name] & (True if seen is None else ~seen))
         if part.size:
             runs.keep(name, *runs.run(name, part), tried)
 
 
-def _pilot(runs: NetworkRuns, names: list[str], eligible: dict, pilot: np.ndarray,
-           call: _Call, tol: float, tried: list) -> list[str]:
-    """Every candidate answers the same spread-out pilot rows (marked in ``pilot``); their
-    results there choose which networks go on, in which order (:func:`pilot_order`)."""
-    free = runs.answers.free
-    spread = np.linspace(0, free.sum() - 1, PILOT).astype(np.int64)
-    pilot[np.flatnonzero(free)[spread]] = True
-    results = {name: runs.run(name, np.flatnonzero(pilot & eligible[name]))
-               for name in names}  # (rows, q, p, estimate, accepted)
-    costs = {}
-    for name in names:
-        cal = load(name).calibration
-        if cal is None:  # ranking.ranked offers calibrated networks only
-            raise RuntimeError(f"{name!r} has no calibration to weigh its pilot by")
-        costs[name] = (cal.classical_seconds(tol, call.kind, True, horizon_key(call.t)),
-                       cal.neural_seconds_per(True))
-    order = pilot_order(results, costs)
-    for name in order:  # the pilot rows, each answered by the first that accepts
-        runs.keep(name, *results[name], tried)
-        runs.stop_refining(name, costs[name])
-    for name in names:
-        part, take = results[name][0], results[name][4]
-        if name not in order and part.size:
-            record(tried, name, part.size, 0)
-            tried[-1]["stopped"] = (f"accepted {take.mean():.1%} of a pilot of "
-                                    f"{part.size} rows: not worth its cost")
-    return order
+def _classical_probe(call: _Call, rows: np.ndarray, integrator: str, target: float,
+                     answers: Answers, substeps: np.ndarray, period: np.ndarray,
+                     done: np.ndarray) -> float:
+    """Solve rows ``rows`` classically (their answers final, marked in ``done``) and
+    return the seconds per row it took: the classical cost a network must beat, measured
+    on this call's rows, at its tolerance, on this machine as it is now; or, where less,
+    what the last classical pass of :data:`PILOT` rows or more in this process cost per
+    row in such a call (:func:`~.costs.measured_seconds`)."""
+    start = time.perf_counter()
+    _classical_pass(call, rows, integrator, target, answers, substeps, period, False)
+    done[rows] = True
+    seconds = (time.perf_counter() - start) / max(rows.size, 1)
+    return min(seconds, measured_seconds(_cost_key(call, integrator, target)))
+
+
+def _cost_key(call: _Call, integrator: str, target: float) -> tuple:
+    return call.kind, integrator, target, horizon_key(call.t), call.t.ndim
 
 
 def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target: float,
-                    answers: Answers, progress: bool | None) -> tuple[np.ndarray, np.ndarray]:
-    """Solve rows ``rows_left`` classically, :data:`CHUNK` at a time (in ``answers``);
-    (substeps, period) of every row (0 and nan where a network answered).
+                    answers: Answers, substeps: np.ndarray, period: np.ndarray,
+                    progress: bool | None) -> None:
+    """Solve rows ``rows_left`` classically, :data:`CHUNK` at a time (in ``answers``,
+    and their substeps and period in ``substeps`` and ``period``, in place).
 
     Raises:
         RowError: a bad row, named by its index in the call.
     """
     n, t = call.n, call.t
-    substeps = np.zeros(n, dtype=np.int64)
-    period = np.full(n, np.nan)
+    start = time.perf_counter()
     bar = _bar(rows_left.size, progress)
     for lo in range(0, rows_left.size, CHUNK):
         rows = rows_left[lo:lo + CHUNK]
@@ -360,7 +373,9 @@ def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target:
             bar.update(rows.size)
     if bar is not None:
         bar.close()
-    return substeps, period
+    if rows_left.size >= PILOT:
+        remember_seconds(_cost_key(call, integrator, target),
+                           (time.perf_counter() - start) / rows_left.size)
 
 
 def _one_by_one(potentials, t, q0, p0, tol, method, start):
