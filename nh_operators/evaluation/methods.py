@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .._backend import single_threaded
 from .._constants import TIMES
 from .._sensors import sensor_spline, sensor_values
 from ..solvers import integrate_sensors, paper_rk4
@@ -85,6 +86,13 @@ class ClassicalMethod(Method):
         return self._run(sensor_values(V), np.asarray(t, dtype=np.float64))
 
 
+#: Rows below which a network's call on the CPU runs torch and numba on one thread (as
+#: ``solve_many`` does below the same count; :func:`~nh_operators._backend.single_threaded`):
+#: at batch 1, at torch's and numba's default 2 threads, a PhaseONet call took
+#: 0.66–1.2 ms against 0.4–0.5 ms on one (``benchmarks/cost/api_overhead.py``).
+THREADS_FROM = 256
+
+
 class NeuralMethod(Method):
     """A trained network as a method (final).
 
@@ -154,7 +162,11 @@ class NeuralMethod(Method):
     def __call__(self, V, t, q0=0.0, p0=0.0):
         """Predict (q, p), each (N, M), for sensor values V (N, 100) at times t, from
         the starting states (q0, p0) (scalars or (N,); default the rest state (0, 0),
-        the only one a network without ``initial_state`` knows)."""
+        the only one a network without ``initial_state`` knows).
+
+        Below :data:`THREADS_FROM` rows on the CPU the call sets torch's and numba's
+        thread counts to 1 and restores them on return, as :func:`nh_operators.solve`
+        does (not thread-safe for torch: ``docs/solve.md``, "Threads")."""
         from ..models import predict
 
         if not (type(V) is np.ndarray and V.dtype == np.float64):
@@ -171,6 +183,9 @@ class NeuralMethod(Method):
         elif not _at_rest(q0, p0):
             raise ValueError(f"{self.name} was trained from the state (0, 0) only; a network "
                              "built with initial_state=True reads other states")
+        if self.device == "cpu" and (1 if np.ndim(V) == 1 else len(V)) < THREADS_FROM:
+            with single_threaded():  # a few rows: threads would only wait for each other
+                return predict(self.net, V, t, batch_size=self.batch_size)
         return predict(self.net, V, t, batch_size=self.batch_size)
 
     def synchronize(self):

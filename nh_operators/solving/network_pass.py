@@ -197,8 +197,8 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
             share, seconds = share - fine_share, seconds - fine_s
         if MARGIN * share * classical > seconds:
             order.append(name)
-            for result, *_ in parts:
-                runs.keep(name, *result, tried)
+            for (part_rows, q, p, estimate, accepted), *_ in parts:
+                runs.keep(name, part_rows, q, p, estimate, accepted, tried)
         else:
             waste += sum(part[1] for part in parts)
             dropped.append((name, size, sum(int(p[0][4].sum()) for p in parts) / size))
@@ -217,7 +217,7 @@ def _spread(rows: np.ndarray, k: int) -> np.ndarray:
 
 
 def _timed(runs: NetworkRuns, name: str,
-           rows: np.ndarray) -> tuple[tuple, float, int, float, int]:
+           rows: np.ndarray) -> tuple[tuple[Any, ...], float, Any, Any, Any]:
     """(result of ``runs.run``, seconds, rows its finer look accepted, seconds that took,
     rows it took the finer look on)."""
     before = list(runs.refined.get(name) or [0, 0, 0.0])
@@ -268,7 +268,7 @@ def run_pilot(runs: NetworkRuns, names: list[str], eligible: dict, kind: InputKi
         expected[name] = (predicted[name][0] * (1.0 + REFINE * predicted[name][1])
                           + (1.0 - share) * classical)
     budget = budget_share * classical * free.sum()
-    return pilot_order(runs, sorted(names, key=expected.get), eligible, rows, predicted,
+    return pilot_order(runs, sorted(names, key=lambda n: expected[n]), eligible, rows, predicted,
                        classical, budget, tried, (kind, tol))
 
 

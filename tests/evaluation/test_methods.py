@@ -162,3 +162,30 @@ def test_neural_method_fast_paths_keep_every_answer_warning_and_error():
         m(V, nh.TIMES, q0=np.array([0, 0, 0, 0, 0, 0.1]))
     with pytest.raises(ValueError, match="trained from the state \\(0, 0\\) only"):
         m(V, nh.TIMES, p0=-1)
+
+
+def test_a_few_rows_run_on_one_thread_and_the_counts_come_back():
+    import numba
+    import torch
+
+    from nh_operators.evaluation.methods import THREADS_FROM
+
+    net = tiny("deeponet")
+    seen = []
+    hook = net.register_forward_hook(
+        lambda *_: seen.append((torch.get_num_threads(), numba.get_num_threads())))
+    before = torch.get_num_threads(), numba.get_num_threads()
+    torch.set_num_threads(2)
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    try:
+        wide = torch.get_num_threads(), numba.get_num_threads()
+        m = NeuralMethod(net, "tiny")
+        m(sho_sensors(1)[0], nh.TIMES[:5])             # one potential
+        m(sho_sensors(THREADS_FROM - 1), nh.TIMES[:5])
+        m(sho_sensors(THREADS_FROM), nh.TIMES[:5])     # a batch keeps the caller's counts
+        assert seen == [(1, 1), (1, 1), wide]
+        assert (torch.get_num_threads(), numba.get_num_threads()) == wide
+    finally:
+        hook.remove()
+        torch.set_num_threads(before[0])
+        numba.set_num_threads(before[1])
