@@ -242,10 +242,6 @@ def _quadrature_compiled(coefficients, a, b, E, q0, nodes, s, w, pieces, grid, e
     return T, phase, U, s0s, Q, P
 
 
-_SIXTH, _TWENTIETH, _FORTY_SECOND = 1 / 6, 1 / 20, 1 / 42
-_TWELFTH, _THIRTIETH = 1 / 12, 1 / 30
-
-
 @numba.njit(cache=True, nogil=True)
 def invert_row(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P):
     """:func:`.orbit_shape.shape_table` for one row, into Q and P (grid,), with the
@@ -273,10 +269,9 @@ def invert_row(f, s, w, T, ends, cos_e, sin_e, gaps, Q, P):
         at = ends[right - 1] + x * width
         a = math.pi * x * width
         a2 = a * a
-        # products with the series' inverse factorials: a division costs several
-        # times a product here, and this loop is most of the quadrature start's time
-        sin_a = a * (1 - a2 * _SIXTH * (1 - a2 * _TWENTIETH * (1 - a2 * _FORTY_SECOND)))
-        cos_a = 1 - a2 * 0.5 * (1 - a2 * _TWELFTH * (1 - a2 * _THIRTIETH))
+        # products by inverse factorials (folded): a division costs several products
+        sin_a = a * (1 - a2 * (1 / 6) * (1 - a2 * (1 / 20) * (1 - a2 * (1 / 42))))
+        cos_a = 1 - a2 * 0.5 * (1 - a2 * (1 / 12) * (1 - a2 * (1 / 30)))
         c0, s0 = cos_e[right - 1], sin_e[right - 1]
         Q[g] = (1 - (c0 * cos_a - s0 * sin_a)) / 2
         while node < K - 1 and s[node] < at:   # s[node − 1] < at ≤ s[node], clamped

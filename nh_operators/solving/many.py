@@ -24,11 +24,10 @@ Each row says what it is, ``converged`` and ``truth`` (:mod:`~nh_operators.solvi
 
 from __future__ import annotations
 
-import functools
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -45,6 +44,7 @@ from .auto_solve import solve
 from .costs import horizon_key, measured_seconds, remember_seconds
 from .kinds import InputKind
 from .loader import load
+from .many_solution import ManySolution
 from .network_pass import Answers, NetworkRuns, run_pilot
 from .ranking import CLASSICAL, DEFAULT_TOL, check_method, ranked
 
@@ -68,60 +68,6 @@ PILOT_BUDGET = 0.03
 PROGRESS_FROM = 20_000
 #: Rows from which the classical kernels run on all of numba's threads.
 THREADS_FROM = 256
-
-
-@dataclass
-class ManySolution:
-    """What :func:`solve_many` returns.
-
-    Attributes:
-        q, p: float64 arrays (N, M), row i at row i's times, in their order.
-        methods: (N,) array of method names (``"rk4"``, ``"traonet"``, ...).
-        error_estimate: (N,) estimated L_tot of each row.
-        neural: (N,) bool, rows a network answered.
-        substeps: (N,) int, the substeps of a classical row's solution (0 for neural).
-        period: (N,) T where a classical row's times were answered from one period,
-            else nan.
-        converged: (N,) bool, rows whose estimate met tol (:data:`DEFAULT_TOL` when
-            ``tol`` is None).
-        truth: (N,) object array of :class:`~.answers.Truth`, what each row's estimate
-            is measured against: the exact potential or the sensors' spline (for sensor
-            values: the spline through them, not a potential they were sampled from),
-            with confidence 1.0 for classical rows and a network's calibrated quantile
-            (0.999) for neural ones.
-        seconds: wall time of the whole call.
-        tol: the tolerance asked for.
-        tried: networks tried, with how many rows each was offered and accepted (and
-            ``stopped``, why, where a pilot showed it was not worth its cost).
-        records: one dict per row (built when first read): ``method``, ``kind``
-            (``"classical"`` or ``"neural"``), ``error_estimate``, ``converged``,
-            ``truth``, and for classical
-            rows ``substeps`` and ``period`` (None where unused).
-    """
-
-    q: np.ndarray
-    p: np.ndarray
-    methods: np.ndarray
-    error_estimate: np.ndarray
-    neural: np.ndarray
-    substeps: np.ndarray
-    period: np.ndarray
-    converged: np.ndarray
-    truth: np.ndarray
-    seconds: float
-    tol: float | None = None
-    tried: list = field(default_factory=list)
-
-    @functools.cached_property
-    def records(self):
-        return [{"method": str(self.methods[i]),
-                 "kind": "neural" if self.neural[i] else "classical",
-                 "error_estimate": float(self.error_estimate[i]),
-                 "converged": bool(self.converged[i]), "truth": self.truth[i],
-                 **({} if self.neural[i] else {
-                     "substeps": int(self.substeps[i]),
-                     "period": None if np.isnan(self.period[i]) else float(self.period[i])})}
-                for i in range(len(self.methods))]
 
 
 def _bar(total, progress):
