@@ -24,6 +24,8 @@ RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
 #: estimate. Chosen on ``benchmarks/promise/classical_estimate.py`` (docs: solve, "A
 #: cheaper start").
 COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL = 1e-8, 1e-6, 1e-3
+#: The thresholds :func:`start_coarseness` counts, read at call time (a benchmark may
+#: set others for its own process: ``classical_estimate.py --start K``).
 START_TOLS = (COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL)
 
 
