@@ -6,7 +6,7 @@ import pytest
 import nh_operators as nh
 from nh_operators.evaluation import loss_per_sample, physical_reference
 from nh_operators.potentials import as_potential
-from nh_operators.solvers import COARSE_START_TOL, COARSER_START_TOL, solve_classical
+from nh_operators.solvers import solve_classical, start_coarseness
 
 T = np.array([1.7, 0.05, 0.6, 2.0, 1.1])  # unsorted on purpose
 
@@ -22,9 +22,9 @@ def test_sho_meets_the_tolerance_and_the_estimate_is_conservative(tol):
     assert sol.error_estimate <= tol and err <= sol.error_estimate
     assert sol.q.shape == (5,) and sol.information == "exact V" and sol.seconds > 0
     # levels double from a step of at most RESOLVED_STEP (8 substeps of TIMES' spacing,
-    # which these times use; 4 from COARSE_START_TOL up, 2 from COARSER_START_TOL up);
-    # the first difference alone is never accepted
-    start = 4 if tol >= COARSER_START_TOL else 8 if tol >= COARSE_START_TOL else 16
+    # which these times use; coarser by start_coarseness, 0 by default: the first level
+    # then has 16); the first difference alone is never accepted
+    start = 16 // 2 ** start_coarseness(tol)
     assert [s for s, _ in sol.history] == [start * 2 ** i for i in range(len(sol.history))]
     assert sol.history[0][1] == np.inf and len(sol.history) >= 2
 
