@@ -39,8 +39,8 @@ __all__ = [
 #: makes ``auto`` slower than ``classical``.
 MARGIN = 0.8
 
-#: Seconds for which a network's measured seconds per row and share accepted (at one
-#: input kind and tolerance) bound what later pilots expect of it.
+#: Seconds for which a network's measured seconds per row (at one input kind and
+#: tolerance) bound what later pilots expect of it.
 REMEMBER = 60.0
 
 #: Rows per :func:`network_rows` call in ``solve_many``: its arrays then stay in cache (on
@@ -136,11 +136,12 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
     classical pass took 5 to 10 ms more here, once per call), which the budget does not
     count. So where no network pays,
     ``auto`` costs about ``budget`` and that once more than the classical solve alone;
-    and a network's seconds per row and share accepted measured so, and that speed of
-    the machine, are remembered for :data:`REMEMBER` seconds (its prediction not below
-    those seconds, its share not above that one, the others' predictions at that
-    speed): one measured not to pay is not run again by the calls in that time, nor
-    one of the same calibrated cost.
+    and a network's seconds per row measured so (on at least :data:`MIN_PILOT` rows),
+    and that speed of the machine, are remembered for :data:`REMEMBER` seconds (its
+    prediction not below those seconds, the others' predictions at that speed): one
+    measured too dear to pay even accepting every row is not run again by the calls in
+    that time. The share a network accepted is not remembered: it belongs to the call's
+    rows (a batch outside its domain says nothing about the next batch).
 
     Args:
         runs: the call's :class:`NetworkRuns` (answers kept in place).
@@ -165,10 +166,9 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
         base, refined = predicted[name]
         per_row = max(base * scale * (1.0 + REFINE * refined),
                       measured_seconds((name, *key), REMEMBER, default=0.0))
-        accepts = min(measured_seconds((name, *key, "share"), REMEMBER, default=1.0), 1.0)
         offer = rows[free[rows] & eligible[name][rows]]
         room = int(max(budget - waste, 0.0) / per_row)
-        if not offer.size or per_row >= MARGIN * accepts * classical or room < min(
+        if not offer.size or per_row >= MARGIN * classical or room < min(
                 MIN_PILOT, offer.size):
             continue  # nothing to offer, it cannot pay even accepting every row, or the
             # budget is spent
@@ -183,12 +183,13 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
             parts.append(_timed(runs, name, _spread(rest, room)))
         size = sum(part[0][0].size for part in parts)
         share = sum(int(part[0][4].sum()) for part in parts) / size
-        remember_seconds((name, *key, "share"), share)  # (a share, not seconds)
         fine_share = sum(part[2] for part in parts) / size
         # seconds per row from the last part: the first pays for cold caches
         (last, *_), seconds, _, fine_s, _ = parts[-1]
         seconds, fine_s = seconds / last.size, fine_s / last.size
-        if len(parts) > 1:  # the machine's speed now, from warm caches
+        # the machine's speed now, from warm caches and enough rows (a part of a few rows
+        # costs its call's fixed part: 1.1 ms per row on 4 rows set every prediction 45x)
+        if len(parts) > 1 and last.size >= MIN_PILOT:
             scale = max(seconds - fine_s, 1e-12) / base
             remember_seconds((name, *key), seconds)
             remember_seconds(("scale", *key), scale)
