@@ -39,8 +39,8 @@ __all__ = [
 #: makes ``auto`` slower than ``classical``.
 MARGIN = 0.8
 
-#: Seconds for which a network's measured seconds per row (at one input kind and
-#: tolerance) bound what later pilots expect of it.
+#: Seconds for which the machine's speed a pilot measured (at one input kind and
+#: tolerance) scales what later pilots predict.
 REMEMBER = 60.0
 
 #: Rows per :func:`network_rows` call in ``solve_many``: its arrays then stay in cache (on
@@ -136,12 +136,12 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
     classical pass took 5 to 10 ms more here, once per call), which the budget does not
     count. So where no network pays,
     ``auto`` costs about ``budget`` and that once more than the classical solve alone;
-    and a network's seconds per row measured so (on at least :data:`MIN_PILOT` rows),
-    and that speed of the machine, are remembered for :data:`REMEMBER` seconds (its
-    prediction not below those seconds, the others' predictions at that speed): one
-    measured too dear to pay even accepting every row is not run again by the calls in
-    that time. The share a network accepted is not remembered: it belongs to the call's
-    rows (a batch outside its domain says nothing about the next batch).
+    and the speed of the machine measured so (a network's seconds per row, its finer look
+    left out, over its calibrated ones, on at least :data:`MIN_PILOT` rows) is
+    remembered for :data:`REMEMBER` seconds: every later prediction in that time is at
+    that speed. What a network accepted, and what its finer look cost, are not
+    remembered: they belong to the call's rows (a batch outside its domain says nothing
+    about the next).
 
     Args:
         runs: the call's :class:`NetworkRuns` (answers kept in place).
@@ -164,8 +164,7 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
     free = runs.answers.free
     for name in names:
         base, refined = predicted[name]
-        per_row = max(base * scale * (1.0 + REFINE * refined),
-                      measured_seconds((name, *key), REMEMBER, default=0.0))
+        per_row = base * scale * (1.0 + REFINE * refined)
         offer = rows[free[rows] & eligible[name][rows]]
         room = int(max(budget - waste, 0.0) / per_row)
         if not offer.size or per_row >= MARGIN * classical or room < min(
@@ -191,7 +190,6 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
         # costs its call's fixed part: 1.1 ms per row on 4 rows set every prediction 45x)
         if len(parts) > 1 and last.size >= MIN_PILOT:
             scale = max(seconds - fine_s, 1e-12) / base
-            remember_seconds((name, *key), seconds)
             remember_seconds(("scale", *key), scale)
         if fine_s and MARGIN * fine_share * classical <= fine_s:  # the finer look does not pay
             runs.refined[name] = None
