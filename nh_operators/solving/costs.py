@@ -52,13 +52,13 @@ def horizon_key(t: np.ndarray) -> float:
 
 
 #: Seconds per row measured in this process, by the caller's key, with when
-#: (:func:`time.monotonic`): ``solve_many``'s classical passes and its pilot's networks.
+#: (:func:`time.monotonic`): ``solve_many``'s classical passes.
 _MEASURED: dict[tuple, tuple[float, float]] = {}
 
 
 def remember_seconds(key: tuple, seconds: float) -> None:
     """Record that rows of ``key`` (e.g. a classical pass at one tolerance, integrator,
-    input kind and horizon; a network at one tolerance) took ``seconds`` per row now."""
+    input kind and horizon) took ``seconds`` per row now."""
     _MEASURED[key] = (float(seconds), time.monotonic())
 
 
@@ -70,8 +70,8 @@ def measured_seconds(key: tuple, max_age: float = math.inf,
     ``solve_many``'s pilot takes the smaller of the classical cost recorded so and the
     one it measures on a few rows of its own (a probe of a few rows pays more than its
     share of a call's fixed costs, and a first call may find caches cold: a classical
-    cost measured too high would let a network that does not pay go on), and does not
-    try again, for a while, a network it measured too dear.
+    cost measured too high would let a network that does not pay go on). Nothing a
+    pilot measured of the networks is kept: it belongs to the call's rows.
 
     Example:
         >>> remember_seconds(("example",), 2e-5)

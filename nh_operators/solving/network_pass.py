@@ -15,7 +15,6 @@ import numpy as np
 
 from .._constants import SENSORS, TIMES
 from .acceptance import EARLY_HORIZON
-from .costs import measured_seconds, remember_seconds
 from .estimate import estimate_at, exact_force, sensor_force
 from .kinds import CallKind, InputKind
 from .loader import load
@@ -38,10 +37,6 @@ __all__ = [
 #: 10,000 paper-distribution rows at tol 1e-3, one thread), and a network kept on a tie
 #: makes ``auto`` slower than ``classical``.
 MARGIN = 0.8
-
-#: Seconds for which the machine's speed a pilot measured (at one input kind and
-#: tolerance) scales what later pilots predict.
-REMEMBER = 60.0
 
 #: Rows per :func:`network_rows` call in ``solve_many``: its arrays then stay in cache (on
 #: 10,000 paper-distribution rows, tol 1e-3: 16.8 µs per row in blocks of 1,024 or 512,
@@ -109,8 +104,8 @@ def record(tried, name, rows, accepted):
 
 
 def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.ndarray,
-                predicted: dict, classical: float, budget: float, tried: list,
-                key: tuple = ()) -> list[str]:
+                predicted: dict, classical: float, budget: float,
+                tried: list) -> list[str]:
     """The networks that go on past the pilot, in order, decided on measured costs.
 
     The candidates ``names`` (cheapest expected first) are tried one after the other on
@@ -135,13 +130,12 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
     for caches a classical pass left cold (its first forward pass after a 10,000-row
     classical pass took 5 to 10 ms more here, once per call), which the budget does not
     count. So where no network pays,
-    ``auto`` costs about ``budget`` and that once more than the classical solve alone;
-    and the speed of the machine measured so (a network's seconds per row, its finer look
-    left out, over its calibrated ones, on at least :data:`MIN_PILOT` rows) is
-    remembered for :data:`REMEMBER` seconds: every later prediction in that time is at
-    that speed. What a network accepted, and what its finer look cost, are not
-    remembered: they belong to the call's rows (a batch outside its domain says nothing
-    about the next).
+    ``auto`` costs about ``budget`` and that once more than the classical solve alone.
+    The machine's speed measured so (a network's seconds per row, its finer look left
+    out, over its calibrated ones, on at least :data:`MIN_PILOT` rows) scales the
+    predictions of the networks after it in the same call; nothing a pilot measured is
+    kept for the next call (what a network accepted, and what it cost, belong to the
+    call's rows: a batch outside its domain says nothing about the next).
 
     Args:
         runs: the call's :class:`NetworkRuns` (answers kept in place).
@@ -153,14 +147,12 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
         classical: measured classical seconds per row (> 0).
         budget: seconds the networks that do not go on may spend.
         tried: the call's ``tried`` list (gains one entry per network run).
-        key: what the measured seconds per row of each network are remembered by, with
-            its name (:func:`~.costs.remember_seconds`; e.g. input kind and tolerance).
 
     Returns:
         The names that go on, in order.
     """
     order, dropped, waste = [], [], 0.0
-    scale = measured_seconds(("scale", *key), REMEMBER, default=1.0)  # (a ratio)
+    scale = 1.0  # the machine's speed over the calibration's, once a network measured it
     free = runs.answers.free
     for name in names:
         base, refined = predicted[name]
@@ -190,7 +182,6 @@ def pilot_order(runs: NetworkRuns, names: list[str], eligible: dict, rows: np.nd
         # costs its call's fixed part: 1.1 ms per row on 4 rows set every prediction 45x)
         if len(parts) > 1 and last.size >= MIN_PILOT:
             scale = max(seconds - fine_s, 1e-12) / base
-            remember_seconds(("scale", *key), scale)
         if fine_s and MARGIN * fine_share * classical <= fine_s:  # the finer look does not pay
             runs.refined[name] = None
             share, seconds = share - fine_share, seconds - fine_s
@@ -267,8 +258,8 @@ def run_pilot(runs: NetworkRuns, names: list[str], eligible: dict, kind: InputKi
         expected[name] = (predicted[name][0] * (1.0 + REFINE * predicted[name][1])
                           + (1.0 - share) * classical)
     budget = budget_share * classical * free.sum()
-    return pilot_order(runs, sorted(names, key=lambda n: expected[n]), eligible, rows, predicted,
-                       classical, budget, tried, (kind, tol))
+    return pilot_order(runs, sorted(names, key=lambda n: expected[n]), eligible, rows,
+                       predicted, classical, budget, tried)
 
 
 @dataclass

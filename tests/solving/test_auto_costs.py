@@ -82,16 +82,21 @@ def test_at_a_loose_tol_a_network_that_pays_answers_rows(monkeypatch, rows, smal
     assert np.all(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"] <= tol)
 
 
-def test_a_pilot_of_a_few_rows_leaves_no_speed_behind(monkeypatch, rows, small_pilot):
+def test_a_pilot_keeps_nothing_of_the_networks_for_the_next_call(monkeypatch, rows,
+                                                                   small_pilot):
     """A part of fewer than MIN_PILOT rows costs its call's fixed part per row (1.1 ms per
-    row on 4 rows, 45× the calibration): measured on it, the machine's speed would make
-    every later pilot skip every network for REMEMBER seconds. Nothing is remembered."""
+    row on 4 rows, 45× the calibration): remembered as the machine's speed, it kept every
+    network out of the next calls. What a pilot measures of the networks now stays in
+    its call: only classical passes' costs are remembered, and a second call decides as
+    the first did."""
     from nh_operators.solving import costs
-    from nh_operators.solving.network_pass import MIN_PILOT
 
     _dear_classical(monkeypatch)
     _calibrations(monkeypatch, {"phaseonet-alg1": 1e-9})
-    sol = nh.solve_many(rows, nh.TIMES, tol=1e-2)
-    assert sol.tried and sum(e["rows"] for e in sol.tried) < MIN_PILOT
-    assert not any(key[0] == "scale" or key[0] in {e["method"] for e in sol.tried}
-                   for key in costs._MEASURED)
+    first = nh.solve_many(rows, nh.TIMES, tol=1e-2)
+    names = {e["method"] for e in first.tried}
+    assert names and not any(key[0] == "scale" or key[0] in names
+                             for key in costs._MEASURED)
+    second = nh.solve_many(rows, nh.TIMES, tol=1e-2)
+    assert [(e["method"], e["rows"], "stopped" in e) for e in second.tried] == \
+        [(e["method"], e["rows"], "stopped" in e) for e in first.tried]
