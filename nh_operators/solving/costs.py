@@ -10,7 +10,6 @@ classical solve and the networks measured per row in this process
 """
 
 import math
-import time
 
 import numpy as np
 
@@ -51,21 +50,20 @@ def horizon_key(t: np.ndarray) -> float:
 
 
 
-#: Seconds per row measured in this process, by the caller's key, with when
-#: (:func:`time.monotonic`): ``solve_many``'s classical passes.
-_MEASURED: dict[tuple, tuple[float, float]] = {}
+#: Seconds per row measured in this process, by the caller's key: ``solve_many``'s
+#: classical passes.
+_MEASURED: dict[tuple, float] = {}
 
 
 def remember_seconds(key: tuple, seconds: float) -> None:
-    """Record that rows of ``key`` (e.g. a classical pass at one tolerance, integrator,
-    input kind and horizon) took ``seconds`` per row now."""
-    _MEASURED[key] = (float(seconds), time.monotonic())
+    """Record that rows of ``key`` (a classical pass at one tolerance, integrator, input
+    kind and horizon) took ``seconds`` per row."""
+    _MEASURED[key] = float(seconds)
 
 
-def measured_seconds(key: tuple, max_age: float = math.inf,
-                     default: float = math.inf) -> float:
-    """The seconds per row last recorded for ``key`` (:func:`remember_seconds`) at most
-    ``max_age`` seconds ago, or ``default`` where none was.
+def measured_seconds(key: tuple, default: float = math.inf) -> float:
+    """The seconds per row last recorded for ``key`` (:func:`remember_seconds`), or
+    ``default`` where none was.
 
     ``solve_many``'s pilot takes the smaller of the classical cost recorded so and the
     one it measures on a few rows of its own (a probe of a few rows pays more than its
@@ -78,5 +76,4 @@ def measured_seconds(key: tuple, max_age: float = math.inf,
         >>> measured_seconds(("example",)), measured_seconds(("other",), default=0.0)
         (2e-05, 0.0)
     """
-    seconds, when = _MEASURED.get(key, (default, -math.inf))
-    return seconds if time.monotonic() - when <= max_age else default
+    return _MEASURED.get(key, default)
