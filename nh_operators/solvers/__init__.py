@@ -26,8 +26,11 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "row_error": ["RowError", "about_row"],
     "rows": ["RowSolution", "RowSource", "row_source", "solve_rows"],
     "schemes": ["MAX_STEPS", "METHODS", "ORDERS"],
+    "level_grid": ["DEEP_GAPS", "KINK_SAFETY", "LevelGrid", "estimate_rule", "level_grid"],
     "start_level": ["COARSEST_START_TOL", "COARSER_START_TOL", "COARSE_START_TOL",
-                    "START_TOLS", "start_coarseness"],
+                    "START_TOLS", "start_coarseness", "start_levels"],
+    "start_envelope": ["BARRIER_MARGIN", "KINETIC_MAX", "SAMPLES", "TURNING_FORCE",
+                       "INSIDE", "PAST_GUARD", "inside_envelope", "orbit_flags", "row_flags"],
     "states": ["STATE_ATOL", "STATE_UNIFORMS", "check_states", "energy_states", "random_states",
                "state_arrays"],
 })

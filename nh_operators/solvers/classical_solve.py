@@ -23,11 +23,15 @@ So:
 * the doubling starts at a step of at most :data:`~.start_level.RESOLVED_STEP` (1/8 of the
   spacing of :data:`~nh_operators.TIMES`: the particle moves less than the sensor
   spacing per step; from tol :data:`~.start_level.COARSE_START_TOL` (``COARSER_START_TOL``,
-  ``COARSEST_START_TOL``) up, one (two, three) levels coarser, whose coarsest only
-  floors the estimate: :func:`~.start_level.start_coarseness`), and
+  ``COARSEST_START_TOL``) up, one (two, three) levels coarser for a row whose orbit is
+  inside the envelope of :mod:`.start_envelope` (never slow, never past the spline's
+  guard), whose coarsest only floors the estimate: :func:`~.start_level.start_levels`),
+  and
 * the difference of the last two levels must be below tol, and so must the one before
   it shrunk at the method's rate (a chance agreement of the last two is caught by the
-  earlier pair).
+  earlier pair); on a potential with a kink both, unshrunk, times
+  :data:`~.level_grid.KINK_SAFETY`, and on an orbit past a spline's guard the last
+  :data:`~.level_grid.DEEP_GAPS` of them.
 
 ``benchmarks/promise/classical_estimate.py`` measures it: on 242,000 queries (four sets of
 potentials and starting states, tol 1e-2 to 1e-11) no accepted answer missed tol

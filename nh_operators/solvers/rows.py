@@ -21,10 +21,10 @@ from ._asked_order import asked_columns, in_asked_order, sorted_times
 from ._curve_fixed import curve_rows_fixed
 from ._kernels import level_gap, rows_fixed, trajectory_fixed
 from ._rowwise import rowwise
-from .periodic import (DIRECT_HORIZON, HorizonPlan, PeriodError, default_interval, phase_error,
-                       plan_horizon)
-from .schemes import MAX_STEPS, ORDERS, step_method
-from .start_level import RESOLVED_STEP, start_coarseness
+from .level_grid import DEEP_GAPS, level_grid
+from .periodic import DIRECT_HORIZON, HorizonPlan, PeriodError, phase_error, plan_horizon
+from .schemes import MAX_STEPS, step_method
+from .start_level import start_levels
 
 __all__ = ["RowSolution", "RowSource", "row_source", "solve_rows"]
 
@@ -40,6 +40,8 @@ class RowSource:
         smooth: whether V is C² (see :func:`solve_rows`).
         curve: the rows are B-spline curves; RK4 then runs in the curve parameter
             (:mod:`._curve_fixed`: no inversion of q(λ) per force).
+        guarded: the force is held at its end value past ``OUTSIDE_MARGIN`` (sensor
+            splines, B-spline curves): V has a kink there.
     """
 
     force: object
@@ -48,13 +50,14 @@ class RowSource:
     compiled: bool
     smooth: bool = True
     curve: bool = False
+    guarded: bool = False
 
     def subset(self, rows):
         """The rows ``rows`` as a source of their own (a formula's stays as it is)."""
         if self.params.shape[0] == 1:
             return self
         return RowSource(self.force, self.value, self.params[rows], self.compiled,
-                         self.smooth, self.curve)
+                         self.smooth, self.curve, self.guarded)
 
     def _at(self, fn, x, rows):
         x = np.asarray(x, dtype=np.float64)
@@ -95,10 +98,10 @@ def row_source(pot, information):
         pot, information = as_potential(pot)
     if information == "sensors":
         params = sensor_spline_params(np.atleast_2d(np.asarray(pot, dtype=np.float64)))
-        return RowSource(grid_force, grid_value, params, True)
+        return RowSource(grid_force, grid_value, params, True, guarded=True)
     if isinstance(pot, BoundedPotential):
-        return RowSource(bspline_force, bspline_value,
-                         pot.params, True, curve=True)
+        return RowSource(bspline_force, bspline_value, pot.params, True, curve=True,
+                         guarded=True)
     if isinstance(pot, np.ndarray):
         raise ValueError(f"an array of sensor values needs information 'sensors', got "
                          f"{information!r}")
@@ -114,12 +117,6 @@ def row_source(pot, information):
         return float(pot.V(x))
 
     return RowSource(force, value, np.zeros((1, 1)), False, smooth)
-
-
-#: Factor on the classical estimate of a potential that is not C² (a kink), whose
-#: level errors jump about: on the MFF from random states a factor 1 still let answers
-#: over tol (up to 4.5x at 1e-8), 10 none of those tried.
-KINK_SAFETY = 10.0
 
 
 def _grids(ts, substeps, interval):
@@ -221,7 +218,7 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096,
     t = np.asarray(t, dtype=np.float64)
     asked_order, ts = sorted_times(t, q0s.size)
     plan = plan_horizon(src, ts, q0s, p0s, tols, batched)
-    grid = _level_grid(src, plan, ts, t.ndim == 1, method, tols)
+    grid = level_grid(src, plan, ts, t.ndim == 1, method, *start_levels(src, tols, q0s, p0s))
     solve_tol = (np.sqrt(tols) - np.sqrt(plan.phase)) ** 2
     levels = _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched)
     _check_return(plan, grid.with_t, levels, q0s, p0s, tols, batched)
@@ -231,76 +228,6 @@ def solve_rows(src, t, q0s, p0s, tols, method="rk4", max_substeps=4096,
     est = (np.sqrt(levels.estimate) + np.sqrt(phase)) ** 2
     return RowSolution(q_final, p_final, levels.substeps, est, plan.period, phase,
                        levels.history)
-
-
-@dataclass(frozen=True)
-class _Grid:
-    """The step grids of the levels and how a level's error is weighed (final).
-
-    Attributes:
-        work: (N, W) sorted working times (of :func:`~.periodic.plan_horizon`).
-        interval: (N,) the output interval over ``first``: level s takes s steps in it.
-        first: (N,) float, the substeps per output interval of level 1 (a power of 2;
-            below 1 only from a start 4 levels coarser, whose accepted levels are whole).
-        shared: every row has row 0's times and grid (the lockstep kernel).
-        weight: (1, W) for every row, or (N, W): the share of each working time in the
-            mean gap of two levels.
-        with_t: (N,) rows answered from one period, whose last working time is T.
-        method: a key of :data:`~nh_operators.METHODS`.
-        rate, safety: the shrink of the previous gap per level, and the factor on the
-            estimate (:func:`_estimate_rule`).
-    """
-
-    work: np.ndarray
-    interval: np.ndarray
-    first: np.ndarray
-    shared: bool
-    weight: np.ndarray
-    with_t: np.ndarray
-    method: str
-    rate: float
-    safety: float
-
-
-def _level_grid(src, plan: HorizonPlan, ts, shared_times, method, tols):
-    """The :class:`_Grid` of a solve from its horizon plan and sorted times ``ts``."""
-    n, m = ts.shape
-    periodic, column, work = plan.periodic, plan.column, plan.work
-    # one grid for all rows: shared times, none answered from a period
-    # (column None: no row answered from a period, work = asked times)
-    shared = shared_times and column is None
-    interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
-                else default_interval(ts, periodic))
-    # level 1: steps of RESOLVED_STEP (2^coarse × that at loose tols), `first` per
-    # interval: at most 1 step per interval up to coarse 3, 2^(coarse-3) intervals beyond
-    coarse = start_coarseness(float(np.min(tols)))
-    first = 2.0 ** np.maximum(np.ceil(np.log2(interval / RESOLVED_STEP) - 1e-9) - coarse,
-                              min(0, 3 - coarse))
-    # rows answered from one period: their work column m is T, whose return to the
-    # start is checked after the solve; other rows have a copy of their last time there
-    with_t = periodic & np.isfinite(plan.period)
-    # the estimate averages the asked times and, for a row answered from one period, T
-    if column is None:  # every work time is asked; one row of weights for all
-        weight = np.full((1, m), 1.0 / m)
-    else:
-        weight = np.full(work.shape, 1.0 / (m + 1))
-        weight[~with_t] = 1.0 / m
-        weight[~with_t, m] = 0.0
-    rate, safety = _estimate_rule(src, method)
-    return _Grid(work, interval / first, first, shared, weight, with_t, method, rate, safety)
-
-
-def _estimate_rule(src, method):
-    """(rate, safety): how much the previous gap may be shrunk, and the factor on the
-    estimate.
-
-    By the method's rate on a C² potential; across a kink the level errors jump about
-    (MFF from (0.47, 1.43): gaps 1.4e-7, 8.2e-6, 2.3e-6 at 256, 512, 1024 substeps), so
-    there both gaps, times KINK_SAFETY, must meet tol.
-    """
-    rate = 4.0 ** min(ORDERS[method], 4) if src.smooth else 1.0
-    safety = 1.0 if src.smooth else KINK_SAFETY
-    return rate, safety
 
 
 @dataclass(frozen=True)
@@ -326,7 +253,8 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
     sub_out = np.zeros(n, dtype=np.int64)
     est_out = np.zeros(n)
     q, p = _level(src, rows, grid.work, grid.interval, q0s, p0s, 1, grid.method, grid.shared)
-    previous = np.full(n, np.inf)
+    # the last gaps before this level's, newest first (rows grid.deep count them all)
+    back = np.full((n, DEEP_GAPS - 1), np.inf)
     substeps = 1
     history: list[tuple[int, float]] = []
     # a Python force steps in Python, and so does its gap: a first solve of a formula
@@ -341,18 +269,22 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
         # the gap to the previous level, and the one before it shrunk at the method's
         # rate: a coarse pair that agreed by chance does not hide the error (the first
         # gap alone is never evidence)
-        estimate = np.maximum(raw, previous[rows] / grid.rate) * grid.safety
+        estimate = np.maximum(raw, back[rows, 0] / grid.rate[rows])
+        estimate = np.where(grid.deep[rows], np.maximum(estimate, back[rows].max(1)),
+                            estimate) * grid.safety[rows]
         if n == 1:
             history.append((int(substeps * grid.first[0]), float(estimate[0])))
         done = estimate <= solve_tol[rows]
-        if 2 * substeps * grid.first.max() > max_substeps:
-            if not done.all():
-                _warn_unreached(tols, rows[~done], estimate[~done], max_substeps, batched)
-            done[:] = True
+        capped = 2 * substeps * grid.first[rows] > max_substeps  # per row: own start
+        if np.any(capped & ~done):
+            short = capped & ~done
+            _warn_unreached(tols, rows[short], estimate[short], max_substeps, batched)
+        done |= capped
         finished = rows[done]
         q_out[finished], p_out[finished] = q2[done], p2[done]
         sub_out[finished], est_out[finished] = substeps * grid.first[finished], estimate[done]
-        previous[rows] = raw
+        back[rows, 1:] = back[rows, :-1]
+        back[rows, 0] = raw
         keep = ~done
         rows, q, p = rows[keep], q2[keep], p2[keep]
     return _Levels(q_out, p_out, sub_out, est_out, history)

@@ -1,23 +1,27 @@
-"""Where the classical doubling starts: the resolved step, and the coarser starts that were
-tried at loose tolerances and are off (issue 41, "a cheaper proof").
+"""Where the classical doubling starts: the resolved step, or coarser at loose tolerances
+for rows inside the envelope where that was checked (issue 41, "a cheaper proof").
 
 The doubling of :func:`~.rows.solve_rows` accepts a level only on evidence (the last two
 gaps), so every level below the accepted one is work spent on the proof, and a coarser
-first level would make the proof cheaper. Starting 1, 2 or 3 levels coarser from tol
-1e-8, 1e-6 and 1e-3 up held on the families of ``benchmarks/promise/classical_estimate.py``
+first level makes the proof cheaper. Starting 1, 2 or 3 levels coarser from tol 1e-8,
+1e-6 and 1e-3 up held on the families of ``benchmarks/promise/classical_estimate.py``
 (generator potentials as curves and as sensor values, 20 out-of-distribution formulas per
 draw), but not on 2,000 out-of-distribution potentials given as sensor values
 (``benchmarks/promise/sensor_contract.py --seed 7001|7002|7003``): three coarse levels
-agreed by chance on orbits that pass slowly over a barrier just below V0, and answers
-missed tol by up to 43× (docs: solve, "A cheaper start"). So :data:`START_TOLS` is empty
-and every solve starts at :data:`RESOLVED_STEP`; the thresholds stay named, and a process
-may set :data:`START_TOLS` to measure them (``classical_estimate.py --start K``).
+agreed by chance on orbits that are slow somewhere (released where the force almost
+vanishes, or passing a barrier top just below their energy), and answers missed tol by up
+to 43×. So a row starts coarse only inside the envelope of :mod:`.start_envelope`, which
+excludes such orbits; every other row starts at :data:`RESOLVED_STEP` (docs: solve,
+"Coarse starts, per row").
 """
 
+import numpy as np
+
 from .._constants import TIMES
+from .start_envelope import INSIDE, PAST_GUARD, row_flags
 
 __all__ = ["COARSEST_START_TOL", "COARSER_START_TOL", "COARSE_START_TOL", "RESOLVED_STEP",
-           "START_TOLS", "start_coarseness"]
+           "START_TOLS", "start_coarseness", "start_levels"]
 
 #: The coarsest step the doubling starts from: 1/8 of the spacing of :data:`TIMES`
 #: (:mod:`.classical_solve`). At the largest speed a generator potential gives (about 2.8)
@@ -25,13 +29,12 @@ __all__ = ["COARSEST_START_TOL", "COARSER_START_TOL", "COARSE_START_TOL", "RESOL
 #: used as evidence steps over the features of V.
 RESOLVED_STEP = (TIMES[1] - TIMES[0]) / 8.0
 
-#: The tols from which a start 1, 2, 3 levels coarser than :data:`RESOLVED_STEP` was
-#: tried (chosen on ``benchmarks/promise/classical_estimate.py``; off: see the module).
+#: The tols from which a row inside the envelope starts 1, 2, 3 levels coarser than
+#: :data:`RESOLVED_STEP` (chosen on ``benchmarks/promise/classical_estimate.py``).
 COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL = 1e-8, 1e-6, 1e-3
-#: The thresholds :func:`start_coarseness` counts, read at call time: none (every solve
-#: starts resolved); ``(COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL)`` is the
-#: rule that was tried.
-START_TOLS: tuple[float, ...] = ()
+#: The thresholds :func:`start_coarseness` counts, read at call time; ``()`` starts every
+#: row resolved.
+START_TOLS: tuple[float, ...] = (COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL)
 
 
 def start_coarseness(tol: float) -> int:
@@ -41,11 +44,37 @@ def start_coarseness(tol: float) -> int:
         tol: the loosest target L_tot of the rows solved together.
 
     Returns:
-        How many of :data:`START_TOLS` (read at call time) ``tol`` reaches: 0 with the
-        default (empty) rule.
+        How many of :data:`START_TOLS` (read at call time) ``tol`` reaches.
 
     Example:
-        >>> start_coarseness(1e-3), start_coarseness(1e-12)
-        (0, 0)
+        >>> start_coarseness(1e-3), start_coarseness(1e-7), start_coarseness(1e-12)
+        (3, 1, 0)
     """
     return sum(int(tol >= s) for s in START_TOLS)
+
+
+def start_levels(src, tols: np.ndarray, q0s: np.ndarray,
+                 p0s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row, how many levels coarser than :data:`RESOLVED_STEP` its doubling starts,
+    and whether its orbit crosses a kink of the source.
+
+    Args:
+        src: a :class:`~.rows.RowSource`.
+        tols, q0s, p0s: (N,) each row's target L_tot and starting state.
+
+    Returns:
+        coarse: (N,) int64, :func:`start_coarseness` of the row's tol inside the
+            envelope (:func:`~.start_envelope.row_flags`), 0 outside it or kinked.
+        kinked: (N,) bool, the row's orbit reaches past ``OUTSIDE_MARGIN`` of a source
+            whose force is held there (``src.guarded``).
+    """
+    tols = np.asarray(tols, dtype=np.float64)
+    coarse = np.zeros(tols.shape, dtype=np.int64)
+    for s in START_TOLS:
+        coarse += tols >= s
+    if not (src.guarded or coarse.any()):
+        return coarse, np.zeros(tols.shape, dtype=bool)
+    flags = row_flags(src, q0s, p0s)
+    kinked = ((flags & PAST_GUARD) > 0) & bool(src.guarded)
+    coarse[((flags & INSIDE) == 0) | kinked] = 0
+    return coarse, kinked
