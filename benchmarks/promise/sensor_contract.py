@@ -14,6 +14,7 @@ first ``--single`` rows of each group the same way.
 Run it with::
 
     python benchmarks/promise/sensor_contract.py [--n 2000] [--seed 3001] [--single 100]
+        [--tols 1e-2 1e-3 1e-4 1e-5]
 """
 
 import argparse
@@ -58,6 +59,7 @@ def main():
     ap.add_argument("--n", type=int, default=2000, help="rows per group")
     ap.add_argument("--seed", type=int, default=3001)
     ap.add_argument("--single", type=int, default=100, help="rows of each group for solve")
+    ap.add_argument("--tols", type=float, nargs="+", default=list(TOLS))
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     warnings.simplefilter("ignore")
@@ -66,7 +68,7 @@ def main():
     for label, V in groups(args.n, args.seed).items():
         t = asked_times(len(V), rng)
         q_ref, p_ref = truth(V, t)
-        for tol in TOLS:
+        for tol in args.tols:
             sol = nh.solve_many(V, t, tol=tol)
             true = 0.5 * (((sol.q - q_ref) ** 2).mean(1) + ((sol.p - p_ref) ** 2).mean(1))
             print(f"| {label} | solve_many | {tol:g} | {len(V)} | {sol.neural.mean():.1%} | "

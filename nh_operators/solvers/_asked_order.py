@@ -60,9 +60,12 @@ def in_asked_order(qa: np.ndarray, pa: np.ndarray, asked_order: np.ndarray,
         ndim: 1 when the times were shared by every row (one order for all), else 2.
 
     Returns:
-        (q, p), each a new (N, M) array in the asked order.
+        (q, p), each (N, M) in the asked order: ``qa`` and ``pa`` themselves when the
+        shared times were asked in order, else new arrays.
     """
     n, m = qa.shape
+    if ndim == 1 and np.all(asked_order[0, 1:] > asked_order[0, :-1]):
+        return qa, pa  # asked sorted: nothing to put back
     q_final, p_final = np.empty((n, m)), np.empty((n, m))
     if ndim == 1:
         q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa

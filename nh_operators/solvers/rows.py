@@ -280,11 +280,17 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
             short = capped & ~done
             _warn_unreached(tols, rows[short], estimate[short], max_substeps, batched)
         done |= capped
-        finished = rows[done]
-        q_out[finished], p_out[finished] = q2[done], p2[done]
-        sub_out[finished], est_out[finished] = substeps * grid.first[finished], estimate[done]
         back[rows, 1:] = back[rows, :-1]
         back[rows, 0] = raw
+        if not done.any():  # no row leaves: no copies
+            q, p = q2, p2
+            continue
+        finished = rows[done]
+        if finished.size == n:  # every row leaves at once: the level is the answer
+            q_out, p_out = q2, p2
+        else:
+            q_out[finished], p_out[finished] = q2[done], p2[done]
+        sub_out[finished], est_out[finished] = substeps * grid.first[finished], estimate[done]
         keep = ~done
         rows, q, p = rows[keep], q2[keep], p2[keep]
     return _Levels(q_out, p_out, sub_out, est_out, history)
