@@ -19,6 +19,8 @@ stays ≤ :data:`KINETIC_MAX` (a faster particle steps farther per step). Every 
 starts at :data:`~.start_level.RESOLVED_STEP`.
 """
 
+import warnings
+
 import numba
 import numpy as np
 from numba.extending import register_jitable
@@ -165,10 +167,16 @@ def row_flags(src, q0s, p0s):
             src.params, q0s, p0s, out)
     else:  # a formula in Python: no compiler (a first solve starts none)
         par = src.params[0]
-        v = np.array([src.value(par, x) for x in _GRID])
-        for i in range(q0s.size):
-            out[i] = orbit_flags.py_func(_GRID, v, q0s[i], p0s[i], src.value(par, q0s[i]),
-                                         src.force(par, q0s[i]))
+        try:  # a callable may refuse (or warn about) q outside [0, 1]: then no coarse start
+            with np.errstate(all="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                v = np.array([src.value(par, x) for x in _GRID])
+                for i in range(q0s.size):
+                    out[i] = orbit_flags.py_func(_GRID, v, q0s[i], p0s[i],
+                                                 src.value(par, q0s[i]),
+                                                 src.force(par, q0s[i]))
+        except Exception:  # noqa: BLE001 (any refusal of the samples means: outside)
+            out[:] = 0
     return out
 
 

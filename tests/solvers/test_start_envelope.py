@@ -96,3 +96,28 @@ def test_an_orbit_past_the_guard_is_flagged():
     flags = row_flags(row_source(np.stack([2.0 + 0.5 * Q, double_well(4.0, 0.5)]),
                                  "sensors"), zero, zero)
     assert flags.tolist() == [PAST_GUARD, INSIDE]
+
+
+def test_a_callable_that_refuses_q_outside_the_domain_starts_resolved():
+    """The samples reach 1/16 past [0, 1]; a callable that raises there, or warns, is not
+    let in, and the solve neither fails nor warns because of the samples."""
+    import warnings
+
+    def force(_par, x):
+        if not 0.0 <= x <= 1.0:
+            raise ValueError("q outside [0, 1]")
+        return -16.0 * (x - 0.5)
+
+    def value(_par, x):
+        if not 0.0 <= x <= 1.0:
+            raise ValueError("q outside [0, 1]")
+        return 8.0 * (x - 0.5) ** 2
+
+    src = RowSource(force, value, np.zeros((1, 1)), False)
+    assert row_flags(src, np.array([0.25]), np.zeros(1)).tolist() == [0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        # nan below q = -0.01, where the samples reach and the orbit does not
+        sol = nh.solve_classical("2 - 8*q*(1 - q)*sqrt(q + 0.01)", np.array([0.5, 1.5]),
+                                 tol=1e-6)
+    assert sol.error_estimate <= 1e-6
