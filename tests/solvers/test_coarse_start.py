@@ -32,6 +32,24 @@ def tried_rule():
     assert start_level.START_TOLS == TRIED
 
 
+def stored_row(name: str, tol: float, truth: int, agree: float):
+    """(V, true_over_tol) for a stored sensor row ``data/<name>.npz``: the classical
+    ``solve_many`` answer's true L_tot / tol against RK4 at ``truth`` substeps on the
+    spline, which must agree with half as many substeps within ``agree``."""
+    data = np.load(Path(__file__).parent / "data" / f"{name}.npz")
+    V, t = data["V"][None], data["t"]
+    q_ref, p_ref = nh.integrate_sensors(V, t, substeps=truth, check_resolution=False)
+    q_half, p_half = nh.integrate_sensors(V, t, substeps=truth // 2, check_resolution=False)
+    assert float(loss_per_sample(q_ref, p_ref, q_half, p_half)["L_tot"][0]) < agree
+
+    def true_over_tol() -> float:
+        sol = nh.solve_many(V, t, tol=tol, method="classical")
+        assert sol.error_estimate[0] <= tol
+        return float(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"][0]) / tol
+
+    return V, true_over_tol
+
+
 def test_start_tols_can_be_switched_off(monkeypatch):
     import nh_operators.solvers.start_level as start_level
 
@@ -48,21 +66,11 @@ def test_a_slow_passage_is_outside_the_envelope_and_starts_resolved(monkeypatch)
     chance and the answer misses tol by more than 10×."""
     import nh_operators.solvers.start_level as start_level
 
-    data = np.load(Path(__file__).parent / "data" / "ood_power_well_slow_passage.npz")
-    V, t = data["V"][None], data["t"]
-    assert not inside_envelope(row_source(V, "sensors"), np.zeros(1), np.zeros(1))[0]
     # the truth: RK4 at 4096 substeps on the spline (the slow passage over the spline's
     # knots converges at about order 2.6: 512 and 1024 differ by 3e-8, 2048 and 4096 by
     # 8e-10, so the truth is good to about 2e-10, far below tol)
-    q_ref, p_ref = nh.integrate_sensors(V, t, substeps=4096, check_resolution=False)
-    q_half, p_half = nh.integrate_sensors(V, t, substeps=2048, check_resolution=False)
-    assert float(loss_per_sample(q_ref, p_ref, q_half, p_half)["L_tot"][0]) < 1e-9
-
-    def true_over_tol() -> float:
-        sol = nh.solve_many(V, t, tol=1e-6, method="classical")
-        assert sol.error_estimate[0] <= 1e-6
-        return float(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"][0]) / 1e-6
-
+    V, true_over_tol = stored_row("ood_power_well_slow_passage", 1e-6, 4096, 1e-9)
+    assert not inside_envelope(row_source(V, "sensors"), np.zeros(1), np.zeros(1))[0]
     assert true_over_tol() < 1
     monkeypatch.setattr(start_level, "row_flags",
                         lambda src, q0s, p0s: np.full(q0s.size, INSIDE))
@@ -146,40 +154,22 @@ def test_an_orbit_past_the_guard_gets_the_kink_rule(monkeypatch):
     missed tol 1e-8 by 2×; with the kink rule (no rate, KINK_SAFETY) it meets it."""
     import nh_operators.solvers.start_level as start_level
 
-    data = np.load(Path(__file__).parent / "data" / "ood_past_guard.npz")
-    V, t = data["V"][None], data["t"]
-    q_ref, p_ref = nh.integrate_sensors(V, t, substeps=16384, check_resolution=False)
-    q_half, p_half = nh.integrate_sensors(V, t, substeps=4096, check_resolution=False)
-    assert float(loss_per_sample(q_ref, p_ref, q_half, p_half)["L_tot"][0]) < 1e-11
-
-    def true_over_tol() -> float:
-        sol = nh.solve_many(V, t, tol=1e-8, method="classical")
-        assert sol.error_estimate[0] <= 1e-8
-        return float(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"][0]) / 1e-8
-
+    _, true_over_tol = stored_row("ood_past_guard", 1e-8, 16384, 1e-11)
     assert true_over_tol() < 0.5
     monkeypatch.setattr(start_level, "row_flags",
                         lambda src, q0s, p0s: np.zeros(q0s.size, dtype=np.int64))
     assert true_over_tol() > 1
 
 
-def test_a_plateau_past_the_guard_needs_three_gaps(monkeypatch):
+def test_a_plateau_past_the_guard_needs_deep_evidence(monkeypatch):
     """Seed 9003, row 493 (another orbit out to q = -0.34): RK4's errors at 8, 16 and 32
     substeps are 1.3e-8, 1.7e-8 and 1.9e-8, so two gaps agree by chance and even times
-    KINK_SAFETY the estimate (2.6e-9) passes tol 1e-8; the gap before them does not."""
+    KINK_SAFETY the estimate (2.6e-9) passes tol 1e-8; DEEP_GAPS of them do not."""
     import dataclasses
 
     import nh_operators.solvers.rows as rows
 
-    data = np.load(Path(__file__).parent / "data" / "ood_past_guard_plateau.npz")
-    V, t = data["V"][None], data["t"]
-    q_ref, p_ref = nh.integrate_sensors(V, t, substeps=16384, check_resolution=False)
-
-    def true_over_tol() -> float:
-        sol = nh.solve_many(V, t, tol=1e-8, method="classical")
-        assert sol.error_estimate[0] <= 1e-8
-        return float(loss_per_sample(sol.q, sol.p, q_ref, p_ref)["L_tot"][0]) / 1e-8
-
+    _, true_over_tol = stored_row("ood_past_guard_plateau", 1e-8, 16384, 1e-11)
     assert true_over_tol() < 0.1
     shallow = rows.level_grid
 
