@@ -181,14 +181,8 @@ def row_flags(src, q0s, p0s):
 
 
 def inside_envelope(src, q0s, p0s):
-    """Per row, whether its orbit keeps the margins of the module (see there).
-
-    Args:
-        src: a :class:`~.rows.RowSource` (one row of parameters for a formula).
-        q0s, p0s: (N,) starting states.
-
-    Returns:
-        (N,) bool.
+    """Per row (N,), whether its orbit keeps the margins of the module (see there); the
+    arguments of :func:`row_flags`.
 
     Example:
         >>> import numpy as np
