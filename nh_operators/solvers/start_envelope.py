@@ -34,7 +34,7 @@ __all__ = ["BARRIER_MARGIN", "INSIDE", "KINETIC_MAX", "PAST_GUARD", "SAMPLES", "
 
 #: The least E − V at a barrier top the orbit passes (the generator's least: 0.21).
 BARRIER_MARGIN = 0.1
-#: The least |V'| where the orbit turns or is released at rest (the generator's: 0.42).
+#: The least ``|V'|`` where the orbit turns or is released at rest (the generator's: 0.42).
 TURNING_FORCE = 0.2
 #: The largest kinetic energy E − V on the orbit (the generator's: 3.98, E = V0 = 2 over
 #: V ≥ −2).
@@ -52,9 +52,9 @@ _GRID = np.arange(-SAMPLES // 16, SAMPLES + SAMPLES // 16 + 1) / SAMPLES
 
 @register_jitable
 def _turn_slope(xa, va, xb, vb, xc, vc, energy):
-    """|V'| at the turn between xb (E > V) and xc (E ≤ V): the smaller of the secant's
+    """``|V'|`` at the turn between xb (E > V) and xc (E ≤ V): the smaller of the secant's
     slope and that of the parabola through the last three samples at the turn's linear
-    estimate (near a flat top the secant over a sample spacing is |V''| h / 2, far above
+    estimate (near a flat top the secant over a sample spacing is ``|V''| h / 2``, far above
     the slope where the orbit turns)."""
     secant = abs(vc - vb) / abs(xc - xb)
     if not np.isfinite(va):  # only two samples: the turn lies next to q0
