@@ -117,10 +117,10 @@ def orbit_flags(x, v, q0, p0, v0, f0):
 
 
 def _grid_rows(pars, q0s, p0s, out):
-    v = np.empty(_GRID.shape[0])
     last = pars.shape[0] - 1
-    for i in range(q0s.shape[0]):
-        par = pars[min(i, last)]
+    for i in numba.prange(q0s.shape[0]):
+        par = pars[min(np.int64(i), last)]  # (a prange index is unsigned: min would float)
+        v = np.empty(_GRID.shape[0])
         for k in range(_GRID.shape[0]):
             v[k] = VALUE(par, _GRID[k])
         out[i] = orbit_flags(_GRID, v, q0s[i], p0s[i], VALUE(par, q0s[i]),
@@ -163,7 +163,7 @@ def row_flags(src, q0s, p0s):
     if src.curve:
         _curve_rows(src.params, q0s, p0s, out)
     elif src.compiled:
-        specialised(_grid_rows, {"VALUE": src.value, "FORCE": src.force})(
+        specialised(_grid_rows, {"VALUE": src.value, "FORCE": src.force}, parallel=True)(
             src.params, q0s, p0s, out)
     else:  # a formula in Python: no compiler (a first solve starts none)
         par = src.params[0]
