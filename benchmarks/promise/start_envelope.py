@@ -11,6 +11,9 @@ over tol (the contract asks none) and µs per row. ``--start resolved`` switches
 starts off (``START_TOLS = ()``); ``--start K`` lets every row in (K levels coarser, the
 envelope ignored), to show what the envelope keeps out.
 
+``--cost`` times the envelope's march (:func:`row_flags`) on ``--n`` generator rows, as
+sensor values and as B-spline curves, at 1 and 2 numba threads.
+
 ``--replay`` instead replays RK4's levels (8 to 2,048 substeps; truth 16,384) on the rows
 whose orbit passes the guard and scores the kink rule's depth: accept the first level
 whose last ``d`` gaps, times ``KINK_SAFETY``, meet tol (how ``DEEP_GAPS`` was chosen).
@@ -20,6 +23,7 @@ Run it with::
     python benchmarks/promise/start_envelope.py [--n 2000] [--seed 9001]
         [--tols 1e-2 1e-3 1e-4 1e-5 1e-6 1e-7 1e-8] [--start default|resolved|K]
     python benchmarks/promise/start_envelope.py --replay [--seed 9001]
+    python benchmarks/promise/start_envelope.py --cost [--n 2000]
 """
 
 import argparse
@@ -127,6 +131,30 @@ def replay(args) -> None:
                   flush=True)
 
 
+def cost(args) -> None:
+    import numba
+
+    space = nh.BoundedPotentialSpace(seed=args.seed)
+    pots = space.potentials(space.random(args.n))
+    zero = np.zeros(args.n)
+    sources = {"sensors": row_source(pots.V(nh.SENSORS), "sensors"),
+               "B-spline curves": row_source(pots, "exact V")}
+    print(f"{args.n} Algorithm-1 potentials (seed {args.seed}) from rest; median of 31 calls")
+    print("| rows | numba threads | µs per row |")
+    print("|---|---:|---:|")
+    for threads in (1, 2):
+        numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+        for name, src in sources.items():
+            row_flags(src, zero, zero)
+            seconds = []
+            for _ in range(31):
+                t0 = time.perf_counter()
+                row_flags(src, zero, zero)
+                seconds.append(time.perf_counter() - t0)
+            print(f"| {name} | {numba.get_num_threads()} | "
+                  f"{1e6 * float(np.median(seconds)) / args.n:.2f} |", flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=2000, help="rows per group")
@@ -135,9 +163,10 @@ def main() -> None:
                     default=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
     ap.add_argument("--start", default="default", help="default, resolved, or 0-3")
     ap.add_argument("--replay", action="store_true", help="score the kink rule's depth")
+    ap.add_argument("--cost", action="store_true", help="time the envelope's march")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
-    (replay if args.replay else contract)(args)
+    (cost if args.cost else replay if args.replay else contract)(args)
 
 
 if __name__ == "__main__":
