@@ -21,6 +21,9 @@ trains for the same wall-clock budget (``--minutes``) on the same small
   the causal weighting ε = ``--causal`` (default 10);
 * ``curriculum`` (only when asked for): the residual and energy terms on a horizon that
   widens from 0.25 to 2 over ``--curriculum`` iterations; ``causal-curriculum``: both.
+* ``labels-10`` and ``hybrid-light`` (only when asked for): the same 10 % of the labels
+  alone (``residual=0``), and beside a light residual (weight ``--light``, default 0.01,
+  no energy term): whether a residual that does not drown the labels adds anything.
 
 Every run keeps its checkpoint in ``--out/runs/MODEL-MODE-sSEED``: an interrupted
 benchmark resumes (``nh.train(..., resume=True, max_minutes=...)``) and finished runs
@@ -61,7 +64,7 @@ from nh_operators.models import batched_forward, cast_network
 from nh_operators.training import load_checkpoint, load_model, save_checkpoint
 
 MODES = ("data", "physics", "energy", "hybrid", "finetune", "causal", "curriculum",
-         "causal-curriculum")
+         "causal-curriculum", "labels-10", "hybrid-light")
 ARCH = {"deeponet": {}, "traonet": {"query_coupled": False},
         "mambonet": {"query_coupled": False}, "varonet": {"query_coupled": False}}
 
@@ -88,7 +91,10 @@ def physics_of(mode: str, args: argparse.Namespace) -> dict | None:
             "causal": {"causal": args.causal, **energy},
             "curriculum": {"curriculum": args.curriculum, **energy},
             "causal-curriculum": {"causal": args.causal, "curriculum": args.curriculum,
-                                  **energy}}[mode]
+                                  **energy},
+            # the same 10 % of the labels alone, and with a light residual beside them
+            "labels-10": {"label_fraction": 0.1, "residual": 0.0},
+            "hybrid-light": {"label_fraction": 0.1, "residual": args.light}}[mode]
 
 
 def config(model: str, mode: str, seed: int, args: argparse.Namespace,
@@ -201,7 +207,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     parser.add_argument("--models", nargs="+", default=["deeponet", "traonet"],
                         choices=sorted(ARCH))
-    parser.add_argument("--modes", nargs="+", default=list(MODES[:-1]), choices=MODES)
+    parser.add_argument("--modes", nargs="+", default=list(MODES[:7]), choices=MODES)
     parser.add_argument("--out", type=Path, default=Path("runs/physics"))
     parser.add_argument("--train-size", type=int, default=2000)
     parser.add_argument("--test-size", type=int, default=300)
@@ -212,6 +218,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="constant learning rate of every mode (default 1e-3: the "
                         "DeepONet recipe's 7.3e-3 made the residual modes diverge)")
     parser.add_argument("--causal", type=float, default=10.0, help="ε of the causal mode")
+    parser.add_argument("--light", type=float, default=0.01,
+                        help="the residual's weight in hybrid-light (labels: 1)")
     parser.add_argument("--energy", type=float, default=1.0,
                         help="weight of the energy term in every residual mode but physics")
     parser.add_argument("--curriculum", type=int, default=20_000,
