@@ -2,6 +2,7 @@
 
 import math
 import time
+from functools import partial
 
 import numpy as np
 import pytest
@@ -199,6 +200,16 @@ def test_cost_does_not_grow_with_the_horizon():
     assert best(1e6) < 4 * best(2.0) + 2e-3
 
 
+def _best_of_3(call):
+    """(the last result, the shortest of 3 timings) of ``call()``."""
+    best = math.inf
+    for _ in range(3):
+        start = time.perf_counter()
+        result = call()
+        best = min(best, time.perf_counter() - start)
+    return result, best
+
+
 def _contract(items, tols, horizons, rng):
     """(share met, worst true/tol, median time ratio to [0, 2]) per (tol, horizon)."""
     rows = {}
@@ -208,12 +219,14 @@ def _contract(items, tols, horizons, rng):
             for pot, q0, p0 in items:
                 t = np.sort(rng.uniform(0, horizon, 20))
                 t[-1] = horizon
-                start = time.perf_counter()
-                sol = nh.solve(pot, t, tol=tol, q0=q0, p0=p0)
-                seconds = time.perf_counter() - start
-                start = time.perf_counter()
-                nh.solve(pot, np.linspace(0, 2, 20), tol=tol, q0=q0, p0=p0)
-                ratios.append(seconds / (time.perf_counter() - start))
+                # the best of 3 calls each: a first call pays one-off costs (a physical
+                # potential is compiled from its second solve on), and one call of a few
+                # hundred µs is at the mercy of the machine (single pairs: medians 1.4-1.8
+                # here and 2.02 once in CI; best of 3: 1.0-1.2)
+                sol, seconds = _best_of_3(partial(nh.solve, pot, t, tol=tol, q0=q0, p0=p0))
+                base = _best_of_3(partial(nh.solve, pot, np.linspace(0, 2, 20), tol=tol,
+                                          q0=q0, p0=p0))[1]
+                ratios.append(seconds / base)
                 if pot == "sho":
                     ref = sho_exact(q0, p0, t)
                 elif pot == "mff":
