@@ -11,8 +11,9 @@ rate, and three coarse levels can agree before any has reached tol. The generato
 potentials never come close: from rest their release force is ≥ 0.42 and their barrier
 margin ≥ 0.21 (Algorithm 1 and the paper's, 12,000 rows).
 
-:func:`inside_envelope` samples each row's potential on the orbit's side of its start and
-admits a row only with margins from all four: its energy clears every barrier top it
+:func:`row_flags` samples each row's potential over [−1/16, 17/16] (a B-spline curve along
+its own parameter), marches from its start both ways to the turns, and admits a row only
+with margins from all four: its energy clears every barrier top it
 passes by :data:`BARRIER_MARGIN`, it turns (and, released at rest, starts) where
 ``|V'|`` ≥ :data:`TURNING_FORCE`, it stays inside the sampled range, and its kinetic energy
 stays ≤ :data:`KINETIC_MAX` (a faster particle steps farther per step). Every other row
@@ -78,10 +79,10 @@ def orbit_flags(x, v, q0, p0, v0, f0):
     of V (x increasing); ``v0``, ``f0``: V and −V' at q0.
 
     From q0 it marches over the samples both ways until E − V ≤ 0 (a turn). It is not
-    inside at a turn whose secant slope is below :data:`TURNING_FORCE`, a sampled top
-    passed with E − V below :data:`BARRIER_MARGIN`, a kinetic energy above
-    :data:`KINETIC_MAX`, or the end of the samples (the orbit leaves them, and is
-    counted past the guard too).
+    inside at a turn whose slope (the smaller of the secant's and the parabola's through
+    the last three samples) is below :data:`TURNING_FORCE`, a sampled top passed with
+    E − V below :data:`BARRIER_MARGIN`, a kinetic energy above :data:`KINETIC_MAX`, or the
+    end of the samples (the orbit leaves them, and is counted past the guard too).
     """
     kinetic0 = 0.5 * p0 * p0
     # (nearly) at rest where the force (nearly) vanishes

@@ -37,20 +37,24 @@ COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL = 1e-8, 1e-6, 1e-3
 START_TOLS: tuple[float, ...] = (COARSE_START_TOL, COARSER_START_TOL, COARSEST_START_TOL)
 
 
-def start_coarseness(tol: float) -> int:
-    """How many levels coarser than :data:`RESOLVED_STEP` a solve to ``tol`` starts.
+def start_coarseness(tol: float | np.ndarray) -> int | np.ndarray:
+    """How many levels coarser than :data:`RESOLVED_STEP` a row solved to ``tol`` starts
+    inside the envelope.
 
     Args:
-        tol: the loosest target L_tot of the rows solved together.
+        tol: a row's target L_tot, or an array of them.
 
     Returns:
-        How many of :data:`START_TOLS` (read at call time) ``tol`` reaches.
+        How many of :data:`START_TOLS` (read at call time) ``tol`` reaches: an int, or
+        int64 of ``tol``'s shape.
 
     Example:
         >>> start_coarseness(1e-3), start_coarseness(1e-7), start_coarseness(1e-12)
         (3, 1, 0)
     """
-    return sum(int(tol >= s) for s in START_TOLS)
+    counts = (np.asarray(tol, dtype=np.float64)[..., None]
+              >= np.asarray(START_TOLS, dtype=np.float64)).sum(-1)
+    return int(counts) if counts.ndim == 0 else counts.astype(np.int64)
 
 
 def start_levels(src, tols: np.ndarray, q0s: np.ndarray,
@@ -69,9 +73,7 @@ def start_levels(src, tols: np.ndarray, q0s: np.ndarray,
             whose force is held there (``src.guarded``).
     """
     tols = np.asarray(tols, dtype=np.float64)
-    coarse = np.zeros(tols.shape, dtype=np.int64)
-    for s in START_TOLS:
-        coarse += tols >= s
+    coarse = np.asarray(start_coarseness(tols), dtype=np.int64).reshape(tols.shape)
     if not (src.guarded or coarse.any()):
         return coarse, np.zeros(tols.shape, dtype=bool)
     flags = row_flags(src, q0s, p0s)
