@@ -23,8 +23,11 @@ def sorted_times(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
         (N, M); broadcast views of one row when ``t`` is shared.
     """
     if t.ndim == 1:  # times shared by every row: sort once
-        asked_order = np.broadcast_to(np.argsort(t, kind="stable"), (n, t.size))
-        ts = np.broadcast_to(t[asked_order[0]], (n, t.size))
+        order = np.argsort(t, kind="stable")
+        if n == 1:  # a view of one row is cheaper than a broadcast
+            return order[None], t[order][None]
+        asked_order = np.broadcast_to(order, (n, t.size))
+        ts = np.broadcast_to(t[order], (n, t.size))
     else:
         asked_order = np.argsort(t, axis=1, kind="stable")
         ts = np.take_along_axis(t, asked_order, axis=1)

@@ -83,7 +83,7 @@ def level_grid(src, plan: HorizonPlan, ts, shared_times, method, coarse, kinked)
     # one grid for all rows: shared times, none answered from a period
     # (column None: no row answered from a period, work = asked times)
     shared = shared_times and column is None and bool(np.all(coarse == coarse[0]))
-    interval = (np.broadcast_to(default_interval(ts[:1], periodic[:1]), (n,)) if shared
+    interval = (np.full(n, default_interval(ts[:1], periodic[:1])[0]) if shared
                 else default_interval(ts, periodic))
     # level 1: steps of RESOLVED_STEP (2^coarse × that at loose tols), `first` per
     # interval: at most 1 step per interval up to coarse 3, 2^(coarse-3) intervals beyond

@@ -20,6 +20,7 @@ from ..potentials.compiled import compiled_functions
 from ._asked_order import asked_columns, in_asked_order, sorted_times
 from ._curve_fixed import curve_rows_fixed
 from ._kernels import level_gap, rows_fixed, trajectory_fixed
+from ._row_doubling import double_one_row
 from ._rowwise import rowwise
 from .level_grid import DEEP_GAPS, level_grid
 from .periodic import DIRECT_HORIZON, HorizonPlan, PeriodError, phase_error, plan_horizon
@@ -27,6 +28,12 @@ from .schemes import MAX_STEPS, step_method
 from .start_level import start_levels
 
 __all__ = ["RowSolution", "RowSource", "row_source", "solve_rows"]
+
+#: The largest ``max_substeps`` a single row's doubling takes in one compiled call
+#: (:func:`~._row_doubling.double_one_row`, whose history has room for its levels);
+#: beyond it, and for several rows, the doubling runs level by level in Python.
+ONE_ROW_CAP = 2**40
+
 
 @dataclass
 class RowSource:
@@ -247,9 +254,11 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
     """Double the substeps until each row's estimate meets ``solve_tol``; a row leaves as
     soon as its own does (or every row at ``max_substeps``, with a warning)."""
     n = q0s.size
+    if n == 1 and grid.shared and src.compiled and not src.curve \
+            and max_substeps <= ONE_ROW_CAP:
+        return _one_row(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched)
     rows = np.arange(n)
-    q_out = np.empty((n, grid.work.shape[1]))
-    p_out = np.empty_like(q_out)
+    q_out = p_out = np.empty((0, 0))  # set at the first level a row leaves
     sub_out = np.zeros(n, dtype=np.int64)
     est_out = np.zeros(n)
     q, p = _level(src, rows, grid.work, grid.interval, q0s, p0s, 1, grid.method, grid.shared)
@@ -286,8 +295,8 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
             q, p = q2, p2
             continue
         finished = rows[done]
-        if finished.size == n:  # every row leaves at once: the level is the answer
-            q_out, p_out = q2, p2
+        if rows.size == n:  # the first level any row leaves: it is the output buffer,
+            q_out, p_out = q2, p2  # the rows that stay are overwritten when they leave
         else:
             q_out[finished], p_out[finished] = q2[done], p2[done]
         sub_out[finished], est_out[finished] = substeps * grid.first[finished], estimate[done]
@@ -296,14 +305,32 @@ def _doubling(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
     return _Levels(q_out, p_out, sub_out, est_out, history)
 
 
-def _warn_unreached(tols, bad, estimate, max_substeps, batched):
-    """Warn that rows ``bad`` (with their ``estimate``) miss their tolerance at the cap."""
+def _one_row(src, grid, q0s, p0s, solve_tol, tols, max_substeps, batched):
+    """:func:`_doubling` of a single row on its shared grid, in one compiled call
+    (:func:`~._row_doubling.double_one_row`: the same levels, bit for bit)."""
+    rk4, weights = step_method(grid.method)
+    work, interval = grid.work[0], float(grid.interval[0])
+    out = double_one_row(src.force, src.params[0], work, interval, float(grid.first[0]),
+                         float(q0s[0]), float(p0s[0]), float(solve_tol[0]),
+                         float(grid.rate[0]), float(grid.safety[0]), bool(grid.deep[0]),
+                         max_substeps, grid.weight[0], rk4, weights, DEEP_GAPS,
+                         lambda substeps: _one_grid(work, substeps, interval))
+    if out.short:
+        _warn_unreached(tols, np.zeros(1, dtype=np.int64), np.array([out.estimate]),
+                        max_substeps, batched, depth=1)
+    return _Levels(out.q[None], out.p[None], np.array([out.substeps], dtype=np.int64),
+                   np.array([out.estimate]), out.history)
+
+
+def _warn_unreached(tols, bad, estimate, max_substeps, batched, depth=0):
+    """Warn that rows ``bad`` (with their ``estimate``) miss their tolerance at the cap
+    (``depth``: frames between this helper and :func:`_doubling`)."""
     # stacklevel: the frame three above solve_rows (past this helper and _doubling)
     warnings.warn(f"tolerance {tols[bad[0]]:g} not reached within {max_substeps} "
                   f"substeps (estimate {estimate.max():.3g}"
                   + (f", {bad.size} rows" if batched else "")
                   + "); returning the finest solution", RuntimeWarning,
-                  stacklevel=6)
+                  stacklevel=6 + depth)
 
 
 def _check_return(plan: HorizonPlan, with_t, levels, q0s, p0s, tols, batched):

@@ -78,10 +78,11 @@ def check_states(q0s, p0s, value_at, batched=False):
         ...
         nh_operators.solvers.row_error.RowError: the state (q0 = 0.5, p0 = 3) has energy ...
     """
-    for i in range(q0s.size):
-        if not 0.0 <= q0s[i] <= 1.0:
-            raise RowError(f"q0 = {q0s[i]:g} is outside [0, 1], where V is defined",
-                           row=i if batched else None)
+    outside = np.flatnonzero(~((q0s >= 0.0) & (q0s <= 1.0)))  # NaN too
+    if outside.size:
+        i = int(outside[0])
+        raise RowError(f"q0 = {q0s[i]:g} is outside [0, 1], where V is defined",
+                       row=i if batched else None)
     with np.errstate(all="ignore"):
         energy = 0.5 * p0s**2 + np.asarray(value_at(q0s), dtype=np.float64).reshape(-1)
     at_rest_on_wall = (p0s == 0.0) & ((q0s == 0.0) | (q0s == 1.0))

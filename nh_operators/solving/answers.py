@@ -121,6 +121,8 @@ def row_truths(kind: InputKind, methods: np.ndarray, neural: np.ndarray) -> np.n
     """
     out = np.empty(len(methods), dtype=object)
     out[:] = [truth_of(kind)] * len(methods)
+    if not neural.any():
+        return out
     for name in np.unique(methods[neural]).tolist():
         out[neural & (methods == name)] = truth_of(kind, str(name))
     return out

@@ -312,7 +312,10 @@ def _classical_pass(call: _Call, rows_left: np.ndarray, integrator: str, target:
             if err.row is None:
                 raise
             raise err.renumbered(int(rows[err.row])) from None
-        answers.q[rows], answers.p[rows] = out.q, out.p
+        if rows.size == n:  # one chunk of every row, in order: its arrays are the answers
+            answers.q, answers.p = out.q, out.p
+        else:
+            answers.q[rows], answers.p[rows] = out.q, out.p
         answers.estimate[rows], substeps[rows], period[rows] = (
             out.estimate, out.substeps, out.period)
         if bar is not None:
