@@ -24,6 +24,10 @@ trains for the same wall-clock budget (``--minutes``) on the same small
 * ``labels-10`` and ``hybrid-light`` (only when asked for): the same 10 % of the labels
   alone (``residual=0``), and beside a light residual (weight ``--light``, default 0.01,
   no energy term): whether a residual that does not drown the labels adds anything.
+* ``integral``, ``integral-energy`` and ``hybrid-integral`` (only when asked for): the
+  residual in integral (Picard) form, q − q0 − ∫p and p − p0 − ∫F(q) by the trapezoid
+  rule (``physics={"form": "integral"}``): alone, with the energy term, and beside the
+  same 10 % of the labels (weight 1 each). No derivative of the network is taken.
 
 Every run keeps its checkpoint in ``--out/runs/MODEL-MODE-sSEED``: an interrupted
 benchmark resumes (``nh.train(..., resume=True, max_minutes=...)``) and finished runs
@@ -64,7 +68,8 @@ from nh_operators.models import batched_forward, cast_network
 from nh_operators.training import load_checkpoint, load_model, save_checkpoint
 
 MODES = ("data", "physics", "energy", "hybrid", "finetune", "causal", "curriculum",
-         "causal-curriculum", "labels-10", "hybrid-light")
+         "causal-curriculum", "labels-10", "hybrid-light", "integral", "integral-energy",
+         "hybrid-integral")
 ARCH = {"deeponet": {}, "traonet": {"query_coupled": False},
         "mambonet": {"query_coupled": False}, "varonet": {"query_coupled": False}}
 
@@ -94,7 +99,11 @@ def physics_of(mode: str, args: argparse.Namespace) -> dict | None:
                                   **energy},
             # the same 10 % of the labels alone, and with a light residual beside them
             "labels-10": {"label_fraction": 0.1, "residual": 0.0},
-            "hybrid-light": {"label_fraction": 0.1, "residual": args.light}}[mode]
+            "hybrid-light": {"label_fraction": 0.1, "residual": args.light},
+            # the residual in integral (Picard) form: no time derivative of the network
+            "integral": {"form": "integral"},
+            "integral-energy": {"form": "integral", **energy},
+            "hybrid-integral": {"form": "integral", "label_fraction": 0.1}}[mode]
 
 
 def config(model: str, mode: str, seed: int, args: argparse.Namespace,

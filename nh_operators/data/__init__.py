@@ -11,7 +11,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "generate": ["DATASET_PRESETS", "Dataset", "check_output_path", "generate_dataset",
                  "label_potentials", "load_dataset", "preset_kwargs"],
     "operator_data": ["OperatorData"],
-    "physics_loss": ["PhysicsTerms"],
+    "physics_loss": ["PhysicsTerms", "integral_residuals"],
     "physics_terms": ["SensorSpline", "state_transform", "time_derivative"],
     "rows": ["H5Rows", "MemoryRows", "Rows", "open_rows", "split_indices"],
     "shards": ["ShardedOperatorData", "check_global_batch", "shard_bounds"],

@@ -17,6 +17,15 @@ neural networks", 2022). With ``curriculum`` = K > 0 iterations, only the times 
 horizon T(i) = t_max·(1/8 + 7/8·min(i/K, 1)) count at iteration i: the fit starts on the
 first eighth of the interval and widens to all of it over K iterations.
 
+With ``form="integral"`` the residuals are those of the integral (Picard) form instead,
+q(t) − q0 − ∫₀ᵗ p and p(t) − p0 − ∫₀ᵗ F(q) with F = −V', by the trapezoid rule over the
+sorted collocation times: no time derivative of the network is taken, so the network
+need not be pointwise, an iteration costs about a data-driven one, and a network that
+fits labels has a small integral residual too (its autograd derivative can be far off:
+residual 8–35 for data-driven DeepONets here), so labels and residual pull the same way.
+The trapezoid rule's own error on an exact trajectory is O(Δt²) (about 1e-7 to 1e-5 in
+these units on the 100 grid times).
+
 Why: a residual needs no reference solve, so a network can train on potentials without
 labels, or with a few (``label_fraction``), and can be refined on one potential at test
 time.
@@ -33,10 +42,13 @@ import torch
 from .._constants import SENSORS
 from .physics_terms import SensorSpline, time_derivative
 
-__all__ = ["PhysicsTerms"]
+__all__ = ["FORMS", "PhysicsTerms", "integral_residuals"]
 
 #: Names of the loss columns :meth:`PhysicsTerms.losses` returns, in order.
 COLUMNS = ("residual q", "residual p", "energy", "labels")
+
+#: The residual forms :class:`PhysicsTerms` takes.
+FORMS = ("derivative", "integral")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,10 +69,12 @@ class PhysicsTerms:
         curriculum: iterations over which the residual's horizon widens from t_max/8 to
             t_max (default 0: the whole interval from the start).
         seed: seed of the labelled rows and the extra times.
+        form: ``"derivative"`` (default: dq/dt − p and dp/dt + V'(q), by autograd; the
+            network must be pointwise in time) or ``"integral"`` (the Picard form above).
 
     Raises:
         ValueError: for a negative weight, a fraction outside [0, 1], a negative count
-            or ε, or a non-positive t_max.
+            or ε, a non-positive t_max, or an unknown form.
 
     Example:
         >>> terms = PhysicsTerms(label_fraction=0.25, seed=1)
@@ -77,8 +91,11 @@ class PhysicsTerms:
     t_max: float = 2.0
     curriculum: int = 0
     seed: int = 0
+    form: str = "derivative"
 
     def __post_init__(self) -> None:
+        if self.form not in FORMS:
+            raise ValueError(f"form must be one of {FORMS}, got {self.form!r}")
         for name in ("residual", "energy", "labels", "causal"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be non-negative, got {getattr(self, name)}")
@@ -137,22 +154,27 @@ class PhysicsTerms:
         if not (self.residual or self.energy):  # labels only: skip the derivatives
             zero = outputs.sum() * 0.0
             return [zero, zero, zero, self.labels * self._label_loss(outputs, targets)]
-        dy = time_derivative(outputs, t)
         q, p = outputs[..., 0], outputs[..., 1]
         sensors = V[:, :n_sensors].to(outputs.dtype)
         spline = _spline(n_sensors)
         Vq, dVq = spline(sensors, q)
-        rq, rp = dy[..., 0] - p, dy[..., 1] + dVq
+        if V.shape[1] >= n_sensors + 2:
+            q0, p0 = V[:, n_sensors:n_sensors + 1], V[:, n_sensors + 1:n_sensors + 2]
+        else:
+            q0 = p0 = torch.zeros_like(sensors[:, :1])
+        q0, p0 = q0.to(outputs.dtype), p0.to(outputs.dtype)
+        V0, dV0 = spline(sensors, q0)
+        if self.form == "integral":
+            rq, rp = integral_residuals(q, p, -dVq, (q0, p0, -dV0), t)
+        else:
+            dy = time_derivative(outputs, t)
+            rq, rp = dy[..., 0] - p, dy[..., 1] + dVq
         weight = self._causal_weights(rq.detach() ** 2 + rp.detach() ** 2, t)
         if self.curriculum and iteration is not None:
             weight = weight * (t.detach()[:, 0] <= self.horizon(iteration)).to(t.dtype)
         columns = [self.residual * torch.mean(weight * rq**2),
                    self.residual * torch.mean(weight * rp**2)]
-        if V.shape[1] >= n_sensors + 2:
-            q0, p0 = V[:, n_sensors:n_sensors + 1], V[:, n_sensors + 1:n_sensors + 2]
-        else:
-            q0 = p0 = torch.zeros_like(sensors[:, :1])
-        E0 = spline(sensors, q0.to(outputs.dtype))[0] + p0.to(outputs.dtype) ** 2 / 2
+        E0 = V0 + p0**2 / 2
         drift = p**2 / 2 + Vq - E0
         columns.append(self.energy * torch.mean(drift**2))
         columns.append(self.labels * self._label_loss(outputs, targets))
@@ -190,6 +212,42 @@ class PhysicsTerms:
         m = targets.shape[1]
         err = outputs[rows, :m] - targets[rows].to(outputs.dtype)
         return torch.mean(err**2)
+
+
+def integral_residuals(q: torch.Tensor, p: torch.Tensor, F: torch.Tensor,
+                       start: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
+                       t: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The residuals of Hamilton's equations in integral (Picard) form, by the trapezoid
+    rule from t = 0 over the sorted times.
+
+    Args:
+        q, p: (B, M) positions and momenta at the times ``t``.
+        F: (B, M) the force −V'(q) at q.
+        start: (q0, p0, F0), each (B, 1): the starting state and its force, at t = 0.
+        t: (M, 1) times ≥ 0, any order (repeats allowed).
+
+    Returns:
+        (r_q, r_p), each (B, M) in the order of ``t``: q(t) − q0 − ∫₀ᵗ p and
+        p(t) − p0 − ∫₀ᵗ F.
+
+    Example:
+        >>> t = torch.linspace(0, 1, 201, dtype=torch.float64)[:, None]
+        >>> q, p = torch.sin(t.T), torch.cos(t.T)      # the oscillator V = q²/2
+        >>> one = torch.ones(1, 1, dtype=torch.float64)
+        >>> rq, rp = integral_residuals(q, p, -q, (0 * one, one, 0 * one), t)
+        >>> bool(rq.abs().max() < 1e-5 and rp.abs().max() < 1e-5)
+        True
+    """
+    q0, p0, F0 = start
+    ts = t.detach()[:, 0]
+    order = torch.argsort(ts)
+    dt = torch.diff(ts[order], prepend=ts.new_zeros(1))
+    qs, ps, Fs = q[:, order], p[:, order], F[:, order]
+    Q = q0 + torch.cumsum(0.5 * (torch.cat([p0, ps[:, :-1]], 1) + ps) * dt, 1)
+    P = p0 + torch.cumsum(0.5 * (torch.cat([F0, Fs[:, :-1]], 1) + Fs) * dt, 1)
+    rq, rp = torch.empty_like(q), torch.empty_like(p)
+    rq[:, order], rp[:, order] = qs - Q, ps - P
+    return rq, rp
 
 
 @functools.lru_cache(maxsize=8)

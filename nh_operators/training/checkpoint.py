@@ -103,7 +103,8 @@ def network_from_config(config: dict) -> torch.nn.Module:
         The network (weights from torch's global generator).
 
     Raises:
-        ValueError: for a physics-informed config whose network couples its query times.
+        ValueError: for a physics-informed config (derivative form) whose network couples
+            its query times.
     """
     from ..data import state_transform
     from ..models import build_model, cast_network
@@ -112,7 +113,8 @@ def network_from_config(config: dict) -> torch.nn.Module:
                       **config["arch"])
     net = cast_network(net, getattr(torch, config["dtype"]))
     if config.get("physics") is not None:
-        if getattr(net, "query_coupled", False):
+        pointwise = config["physics"].get("form", "derivative") == "derivative"
+        if pointwise and getattr(net, "query_coupled", False):
             raise ValueError(
                 f"physics-informed training needs a network that predicts each time on its "
                 f"own; this {config['model']} couples its query times: add --arch "

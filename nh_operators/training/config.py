@@ -63,10 +63,12 @@ class TrainConfig:
         physics: None (default: learn from the labels) or a dict of
             :class:`~nh_operators.data.PhysicsTerms` fields, e.g.
             ``{"label_fraction": 0.1, "energy": 0.1}``: learn from the residual of
-            Hamilton's equations (with the labels of that share of the rows). The network
-            must be pointwise in time (``arch={"query_coupled": False}`` for the sequence
-            networks); it gets the starting state as an output transform, in training and
-            wherever ``load_model`` rebuilds it. Validation still scores against labels.
+            Hamilton's equations (with the labels of that share of the rows). In the
+            default derivative form the network must be pointwise in time
+            (``arch={"query_coupled": False}`` for the sequence networks; the
+            ``"form": "integral"`` residual takes any network); it gets the starting
+            state as an output transform, in training and wherever ``load_model``
+            rebuilds it. Validation still scores against labels.
     """
 
     model: ModelName

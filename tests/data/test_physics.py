@@ -7,8 +7,8 @@ from scipy.interpolate import CubicSpline
 
 import nh_operators as nh
 from nh_operators._backend import ensure_pytorch_backend
-from nh_operators.data import (OperatorData, PhysicsTerms, SensorSpline, state_transform,
-                               time_derivative)
+from nh_operators.data import (OperatorData, PhysicsTerms, SensorSpline, integral_residuals,
+                               state_transform, time_derivative)
 
 dde = ensure_pytorch_backend()
 
@@ -170,3 +170,79 @@ def test_curriculum_counts_only_the_times_inside_its_horizon():
     assert full == pytest.approx(plain, rel=1e-12) and full[0] > 1e-3
     with pytest.raises(ValueError, match="curriculum must be a non-negative integer"):
         PhysicsTerms(curriculum=-1)
+
+
+def test_integral_residual_of_the_exact_trajectory_converges_at_second_order():
+    """The trapezoid rule's error on the exact SHO trajectory: O(Δt²), so the mean
+    squared residual falls 16x per halving of the spacing."""
+    terms = PhysicsTerms(form="integral", energy=1.0)
+    cols = []
+    for n in (51, 101, 201):
+        inputs, y = _sho_inputs(np.linspace(0, 2, n), q0=0.1)
+        cols.append([float(c.detach()) for c in terms.losses(inputs, y, None)])
+    rq = np.array([c[0] for c in cols])
+    rp = np.array([c[1] for c in cols])
+    assert rq[0] < 1e-6 and rp[0] < 1e-4 and max(c[2] for c in cols) < 1e-24
+    np.testing.assert_allclose(rq[:-1] / rq[1:], 16.0, rtol=0.05)
+    np.testing.assert_allclose(rp[:-1] / rp[1:], 16.0, rtol=0.05)
+
+
+def test_integral_residual_of_a_shifted_trajectory_is_known_exactly():
+    """q shifted by s (the start missed by s), p unchanged: r_q grows by s at every time
+    and r_p by −∫ (F(q + s) − F(q)) = 16 s t, exactly (the trapezoid rule is exact on
+    constants); the loss columns are the means of their squares."""
+    t_values = np.linspace(0, 2, 201)
+    terms = PhysicsTerms(form="integral")
+    one = torch.ones(1, 1, dtype=torch.float64)
+    start = (0.1 * one, 0 * one, -16 * (0.1 - 0.5) * one)
+    res = []
+    for shift in (0.0, 0.01):
+        inputs, y = _sho_inputs(t_values, q0=0.1, energy_shift=shift)
+        q, p = y[..., 0], y[..., 1]
+        res.append(integral_residuals(q, p, -16 * (q - 0.5), start, inputs[1]))
+        cols = [float(c.detach()) for c in terms.losses(inputs, y, None)]
+        means = [float(torch.mean(r.detach() ** 2)) for r in res[-1]]
+        np.testing.assert_allclose(cols[:2], means, rtol=1e-9)  # spline: F to rounding
+    (rq0, rp0), (rq1, rp1) = res
+    np.testing.assert_allclose((rq1 - rq0).detach().numpy()[0], 0.01, rtol=0, atol=1e-15)
+    np.testing.assert_allclose((rp1 - rp0).detach().numpy()[0], 0.16 * t_values, rtol=0,
+                               atol=1e-13)
+
+
+def test_integral_residuals_take_times_in_any_order():
+    t_sorted = np.linspace(0, 2, 41)
+    perm = np.random.default_rng(0).permutation(41)
+    t_values = np.concatenate([t_sorted[perm], t_sorted[:3]])  # shuffled, with repeats
+    inputs, y = _sho_inputs(t_values, q0=0.2)
+    q, p = y[..., 0], y[..., 1]
+    F = -16 * (q - 0.5)
+    one = torch.ones(1, 1, dtype=torch.float64)
+    start = (0.2 * one, 0 * one, -16 * (0.2 - 0.5) * one)
+    rq, rp = integral_residuals(q, p, F, start, inputs[1])
+    inputs_s, y_s = _sho_inputs(t_sorted, q0=0.2)
+    rq_s, rp_s = integral_residuals(y_s[..., 0], y_s[..., 1], -16 * (y_s[..., 0] - 0.5),
+                                    start, inputs_s[1])
+    np.testing.assert_allclose(rq[0, :41].detach().numpy(), rq_s[0, perm].detach().numpy(),
+                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(rp[0, 41:].detach().numpy(), rp_s[0, :3].detach().numpy(),
+                               rtol=0, atol=1e-15)
+    with pytest.raises(ValueError, match="form must be one of"):
+        PhysicsTerms(form="weak")
+
+
+def test_integral_form_lowers_its_residual_without_labels():
+    space = nh.BoundedPotentialSpace(seed=0)
+    pots = space.potentials(space.random(64))
+    V = pots.V(nh.SENSORS).astype(np.float32)
+    t = nh.TIMES[:, None].astype(np.float32)
+    y = np.zeros((64, 100, 2), np.float32)  # never read: label_fraction 0
+    data = OperatorData((V[:48], t), y[:48], (V[48:], t), y[48:],
+                        physics=PhysicsTerms(form="integral"))
+    torch.manual_seed(0)
+    net = nh.build_model("deeponet", "cpu", hidden_size=32, hidden_layers=2, branches=8)
+    net.apply_output_transform(state_transform(100))
+    model = dde.Model(data, net)
+    model.compile("adam", lr=2e-3)
+    losses, _ = model.train(iterations=150, batch_size=16, display_every=1000, verbose=0)
+    first, last = np.sum(losses.loss_train[0][:2]), np.sum(losses.loss_train[-1][:2])
+    assert last < 0.2 * first, (first, last)

@@ -48,3 +48,15 @@ def test_physics_mode_errors_are_named(small, tmp_path):
                              arch=dict(d_model=8, nhead=2, num_layers=1, dim_feedforward=16))
     with pytest.raises(ValueError, match="query_coupled=False"):
         nh.train(coupled, small, tmp_path / "c", progress=False)
+
+
+def test_the_integral_form_takes_a_network_that_couples_its_query_times(small, tmp_path):
+    arch = dict(d_model=8, nhead=2, num_layers=1, dim_feedforward=16)
+    coupled = nh.TrainConfig("traonet", preset="cpu", epochs=1, arch=arch, batch_size=16,
+                             physics={"form": "integral", "label_fraction": 0.5})
+    net, history = nh.train(coupled, small, tmp_path, progress=False)
+    assert net.query_coupled and len(history) == 1 and np.isfinite(history[0]["val_loss"])
+    loaded, config = load_model(tmp_path)
+    assert config["physics"]["form"] == "integral"
+    with pytest.raises(ValueError, match="form must be one of"):
+        nh.train(cfg(form="strong"), small, tmp_path / "b", progress=False)
