@@ -191,6 +191,9 @@ def main():
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--networks", nargs="*", default=list(NETWORKS))
+    parser.add_argument("--kinds", nargs="+", default=["sensors", "bspline", "formula"],
+                        choices=["sensors", "bspline", "formula"],
+                        help="the input kinds of the classical table")
     parser.add_argument("--quick", action="store_true",
                         help="200 rows, 8 formulas, loop on 30 rows")
     args = parser.parse_args()
@@ -204,7 +207,7 @@ def main():
     bspline = Kind("bspline", [pots[i] for i in range(args.rows)], pots)
     texts = formulas(args.formulas)
     formula = Kind("formula", texts, texts)
-    kinds = [sensors, bspline, formula]
+    kinds = [k for k in (sensors, bspline, formula) if k.name in args.kinds]
     gaps = []
     for kind in kinds:  # references, and every kernel compiled before any timing
         kind.ref = kind.fixed("rk4", REF_SUBSTEPS)
@@ -213,10 +216,10 @@ def main():
         for tol in TOLS:
             nh.solve_many(kind.batch[:2], nh.TIMES, tol=tol, method="classical")
             nh.solve(kind.rows[0], nh.TIMES, tol=tol, method="classical")
-    for f in texts:  # formulas: parsed and compiled (from their second solve on)
+    for f in texts if formula in kinds else ():  # parsed and compiled (from a 2nd solve)
         nh.solve(f, nh.TIMES, tol=1e-3, method="classical")
         nh.solve(f, nh.TIMES, tol=1e-3, method="classical")
-    truth = bspline.ref
+    truth = bspline.ref if bspline in kinds else bspline.fixed("rk4", REF_SUBSTEPS)
     print(f"{args.rows} Algorithm-1 potentials (seed 42; {args.formulas} formulas), from "
           f"rest, 100 times on [0, 2]; repeats {args.repeats}; reference RK4 ×{REF_SUBSTEPS} "
           f"(max L_tot to ×{REF_SUBSTEPS // 2}: {', '.join(gaps)})")
