@@ -13,6 +13,10 @@ For ``--rows`` fresh Algorithm-1 potentials as sensor values (seed 42), from res
   (the public fixed-step call for the last level alone);
 * the same for three typed formulas (warm: compiled, as from their second solve on).
 
+``--parts`` also times the pieces of one sensor solve at tol 1e-6 on their own (best of
+3 × 2,000 calls each, µs): the checks, the step grids and the doubling, beside the whole
+call.
+
 Run it with::
 
     OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/cost/single_solve.py \\
@@ -22,8 +26,10 @@ Run it with::
 import argparse
 import statistics
 import time
+import timeit
 
 import numba
+import numpy as np
 import torch
 
 import nh_operators as nh
@@ -66,11 +72,47 @@ def recorded(inputs: list, tol: float) -> tuple[list, list]:
     return calls, sols
 
 
+def parts(v) -> None:
+    """µs per call of the pieces of one sensor-value solve at tol 1e-6 (row ``v``)."""
+    from nh_operators.solvers import level_grid, periodic, start_level, states
+    from nh_operators.solvers._asked_order import sorted_times
+    from nh_operators.solvers.classical_solve import coerce_potential
+    from nh_operators.solvers.schemes import check_times
+
+    t, tols = nh.TIMES, np.array([1e-6])
+    src = rows_mod.row_source(v, "sensors")
+    q0s, p0s = states.state_arrays(0.0, 0.0, 1)
+    _, ts = sorted_times(t, 1)
+    plan = periodic.plan_horizon(src, ts, q0s, p0s, tols, False)
+    levels = start_level.start_levels(src, tols, q0s, p0s)
+    pieces = {
+        "coerce_potential": lambda: coerce_potential(v, None),
+        "check_times": lambda: check_times(t),
+        "row_source (spline)": lambda: rows_mod.row_source(v, "sensors"),
+        "state_arrays + check_states": lambda: states.check_states(
+            *states.state_arrays(0.0, 0.0, 1), src.values_at),
+        "sorted_times": lambda: sorted_times(t, 1),
+        "plan_horizon": lambda: periodic.plan_horizon(src, ts, q0s, p0s, tols, False),
+        "start_levels (envelope)": lambda: start_level.start_levels(src, tols, q0s, p0s),
+        "level_grid": lambda: level_grid.level_grid(src, plan, ts, True, "rk4", *levels),
+        "solve_rows (all of the solver)": lambda: rows_mod.solve_rows(src, t, q0s, p0s,
+                                                                      tols),
+        "nh.solve": lambda: nh.solve(v, t, tol=1e-6, method="classical"),
+    }
+    print("\n| piece of one solve (sensors, tol 1e-6) | µs |\n|---|---:|")
+    for name, fn in pieces.items():
+        fn()
+        best = min(timeit.repeat(fn, number=2000, repeat=3)) / 2000
+        print(f"| {name} | {1e6 * best:.1f} |", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--rows", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--tols", type=float, nargs="+", default=[1e-3, 1e-6, 1e-9])
+    parser.add_argument("--parts", action="store_true",
+                        help="also time the pieces of one sensor solve")
     args = parser.parse_args()
     torch.set_num_threads(1)
     numba.set_num_threads(1)
@@ -87,6 +129,8 @@ def main() -> None:
     for name, inputs in (("sensors", list(V)), ("formulas", formulas)):
         for tol in args.tols:
             print(row(name, inputs, tol, V, args.repeats), flush=True)
+    if args.parts:
+        parts(V[0])
 
 
 def row(name: str, inputs: list, tol: float, V, repeats: int) -> str:

@@ -12,6 +12,8 @@ of the steppers. The sensors' spline coefficients come from the one sensor-splin
 (:func:`nh_operators._sensors.notaknot_params`, re-exported here for the solvers).
 """
 
+import math
+
 import numba
 import numpy as np
 from numba.extending import register_jitable
@@ -33,6 +35,21 @@ def hermite(theta, h, y0, d0, y1, d1):
     t3 = t2 * theta
     return ((2 * t3 - 3 * t2 + 1) * y0 + (t3 - 2 * t2 + theta) * h * d0
             + (-2 * t3 + 3 * t2) * y1 + (t3 - t2) * h * d1)
+
+
+@register_jitable
+def grid_steps(t_max, substeps, interval):
+    """The (fractional) steps of a grid of ``substeps`` per ``interval`` up to ``t_max``;
+    more than :data:`~.schemes.MAX_STEPS` is refused by the caller. Plain Python from
+    Python (:func:`~.rows._one_grid`), compiled into the kernels that call it."""
+    return t_max * substeps / interval - 1e-9
+
+
+@register_jitable
+def grid_step(t_max, steps):
+    """(h, nsteps) of the grid of :func:`grid_steps` ``steps`` up to ``t_max``."""
+    nsteps = math.ceil(steps) if t_max > 0 else 0
+    return (t_max / nsteps if nsteps > 0 else 1.0), nsteps
 
 
 @numba.njit(**JIT_FN_ARG)
@@ -237,12 +254,17 @@ def level_gap(q, p, q2, p2, w):
     out = np.empty(q.shape[0])
     own = w.shape[0] > 1
     for i in numba.prange(q.shape[0]):
-        wi = w[i] if own else w[0]
-        s = 0.0
-        for j in range(q.shape[1]):
-            # products, not ** 2: plain Python (``level_gap.py_func``) then computes the
-            # same numbers as the compiled kernel
-            dq, dp = q2[i, j] - q[i, j], p2[i, j] - p[i, j]
-            s += wi[j] * (dq * dq + dp * dp)
-        out[i] = 0.5 * s
+        out[i] = row_gap(q[i], p[i], q2[i], p2[i], w[i] if own else w[0])
     return out
+
+
+@register_jitable
+def row_gap(q, p, q2, p2, w):
+    """½ Σ_j w_j ((q2 − q)² + (p2 − p)²) of one row (M,) each: :func:`level_gap`'s."""
+    s = 0.0
+    for j in range(q.shape[0]):
+        # products, not ** 2: plain Python (``level_gap.py_func``) then computes the
+        # same numbers as the compiled kernel
+        dq, dp = q2[j] - q[j], p2[j] - p[j]
+        s += w[j] * (dq * dq + dp * dp)
+    return 0.5 * s

@@ -8,7 +8,6 @@ are bit for bit those of the Python loop: ``tests/solvers/test_row_doubling.py``
 compiled call per force (:func:`~nh_operators.potentials._spline_kernels.specialised`).
 """
 
-import math
 from collections.abc import Callable
 from typing import NamedTuple
 
@@ -16,7 +15,7 @@ import numba
 import numpy as np
 
 from ..potentials._spline_kernels import FORCE, specialised
-from ._kernels import trajectory_fixed
+from ._kernels import grid_step, grid_steps, row_gap, trajectory_fixed
 from .schemes import MAX_STEPS
 
 __all__ = ["HISTORY", "OneRow", "double_one_row"]
@@ -49,32 +48,24 @@ def _doubling_template(par, work, interval, first, q0, p0, solve_tol, rate, safe
     raises the grid's own message).
     """
     t_max = work[work.shape[0] - 1]
-    substeps = 1
-    steps = t_max * substeps / interval - 1e-9
-    if steps > MAX_STEPS:
-        return -substeps, 0, False
-    nsteps = math.ceil(steps) if t_max > 0 else 0
-    h = t_max / nsteps if nsteps > 0 else 1.0
-    trajectory_fixed(FORCE, par, work, h, nsteps, rk4, weights, q_a, p_a, q0, p0)
     level = 0
-    newer = 0  # q_a holds the last level
+    newer = 1  # no level yet: level 1 goes into q_a
+    substeps = 1
     while True:
-        steps = t_max * (2 * substeps) / interval - 1e-9
+        steps = grid_steps(t_max, substeps, interval)
         if steps > MAX_STEPS:
-            return -2 * substeps, 0, False
-        nsteps = math.ceil(steps) if t_max > 0 else 0
-        h = t_max / nsteps if nsteps > 0 else 1.0
+            return -substeps, 0, False
+        h, nsteps = grid_step(t_max, steps)
         if newer == 0:
             qo, po, qn, pn = q_a, p_a, q_b, p_b
         else:
             qo, po, qn, pn = q_b, p_b, q_a, p_a
         trajectory_fixed(FORCE, par, work, h, nsteps, rk4, weights, qn, pn, q0, p0)
-        s = 0.0
-        for j in range(qo.shape[0]):
-            dq, dp = qn[j] - qo[j], pn[j] - po[j]
-            s += weight[j] * (dq * dq + dp * dp)
-        raw = 0.5 * s
-        substeps *= 2
+        newer = 1 - newer
+        if substeps == 1:  # level 1: nothing to compare yet
+            substeps = 2
+            continue
+        raw = row_gap(qo, po, qn, pn, weight)
         estimate = _maximum(raw, back[0] / rate)
         if deep:
             most = back[0]
@@ -86,13 +77,14 @@ def _doubling_template(par, work, interval, first, q0, p0, solve_tol, rate, safe
         hist[level, 1] = estimate
         level += 1
         done = estimate <= solve_tol
-        capped = 2 * substeps * first > max_substeps
+        # a full history counts as the cap (``ONE_ROW_CAP`` keeps it out of reach)
+        capped = 2 * substeps * first > max_substeps or level == hist.shape[0]
         for k in range(back.shape[0] - 1, 0, -1):
             back[k] = back[k - 1]
         back[0] = raw
-        newer = 1 - newer
-        if done or capped or level == hist.shape[0]:
+        if done or capped:
             return level, newer, capped and not done
+        substeps *= 2
 
 
 #: The compiled template per force (the lookup in :func:`specialised` hashes its key).

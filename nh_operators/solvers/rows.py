@@ -8,7 +8,6 @@ exceeds :data:`~nh_operators.solvers.periodic.PERIODIC_FROM` are answered from o
 period (:mod:`.periodic`).
 """
 
-import math
 import warnings
 from dataclasses import dataclass
 
@@ -19,7 +18,7 @@ from ..potentials.bounded import BoundedPotential
 from ..potentials.compiled import compiled_functions
 from ._asked_order import asked_columns, in_asked_order, sorted_times
 from ._curve_fixed import curve_rows_fixed
-from ._kernels import level_gap, rows_fixed, trajectory_fixed
+from ._kernels import grid_step, grid_steps, level_gap, rows_fixed, trajectory_fixed
 from ._row_doubling import double_one_row
 from ._rowwise import rowwise
 from .level_grid import DEEP_GAPS, level_grid
@@ -144,11 +143,10 @@ def _one_grid(ts, substeps, interval):
     """:func:`_grids` of one row of sorted times ``ts`` (M,), in Python floats: the same
     IEEE arithmetic, without a dozen array operations per level of a single solve."""
     t_max = float(ts[-1])
-    steps = t_max * substeps / interval - 1e-9
+    steps = grid_steps(t_max, substeps, interval)
     if steps > MAX_STEPS:
         _grids(ts[None], substeps, np.array([interval]))  # raises its message
-    nsteps = math.ceil(steps) if t_max > 0 else 0
-    return (t_max / nsteps if nsteps > 0 else 1.0), nsteps
+    return grid_step(t_max, steps)
 
 
 def _level(src, rows, work, interval, q0s, p0s, substeps, method, shared=False):
