@@ -144,17 +144,18 @@ def solve_classical(potential, t, *, tol=1e-8, method="rk4", dV=None, max_subste
         raise ValueError(f"unknown method {method!r}; choose one of {sorted(ORDERS)}")
     with single_threaded():
         pot, information = coerce_potential(potential, dV)
+    t = check_times(np.asarray(t, dtype=np.float64).reshape(-1))
     return adaptive_solve(pot, information, t, tol, method, max_substeps, start, q0=q0, p0=p0)
 
 
 def adaptive_solve(pot, information, t, tol, method, max_substeps=4096, start=None, *,
                    q0=0.0, p0=0.0):
     """The doubling loop of :func:`solve_classical` on an already checked potential
-    (the output of :func:`~nh_operators.potentials.as_potential`); ``start`` is the
-    perf_counter at which the solve's clock started (default: now). Runs on one thread
-    (:func:`~nh_operators._backend.single_threaded`)."""
+    (the output of :func:`~nh_operators.potentials.as_potential`) and already checked
+    times ``t`` ((M,) float64, finite, ≥ 0: :func:`~.schemes.check_times`); ``start`` is
+    the perf_counter at which the solve's clock started (default: now). Runs on one
+    thread (:func:`~nh_operators._backend.single_threaded`)."""
     start = time.perf_counter() if start is None else start
-    t = check_times(np.asarray(t, dtype=np.float64).reshape(-1))
     with single_threaded():
         src = row_source(pot, information)
         q0s, p0s = state_arrays(q0, p0, 1)

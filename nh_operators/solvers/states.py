@@ -6,6 +6,8 @@ before, or at, a wall). The paper's state (0, 0) has E = V(0) = V0 and is always
 as is any other state at rest on a wall.
 """
 
+import math
+
 import numpy as np
 
 from .._constants import V0
@@ -38,6 +40,9 @@ def state_arrays(q0, p0, n):
     """
     out = []
     for name, value in (("q0", q0), ("p0", p0)):
+        if type(value) is float and math.isfinite(value):  # the usual case, cheaply
+            out.append(np.full(n, value))
+            continue
         try:
             arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError):
@@ -78,15 +83,18 @@ def check_states(q0s, p0s, value_at, batched=False):
         ...
         nh_operators.solvers.row_error.RowError: the state (q0 = 0.5, p0 = 3) has energy ...
     """
-    outside = np.flatnonzero(~((q0s >= 0.0) & (q0s <= 1.0)))  # NaN too
-    if outside.size:
-        i = int(outside[0])
+    inside = (q0s >= 0.0) & (q0s <= 1.0)  # NaN is not
+    if not inside.all():
+        i = int(np.argmin(inside))
         raise RowError(f"q0 = {q0s[i]:g} is outside [0, 1], where V is defined",
                        row=i if batched else None)
     with np.errstate(all="ignore"):
         energy = 0.5 * p0s**2 + np.asarray(value_at(q0s), dtype=np.float64).reshape(-1)
+    below = energy <= V0 + STATE_ATOL  # NaN is not
+    if below.all():  # the usual case: no wall test
+        return energy
     at_rest_on_wall = (p0s == 0.0) & ((q0s == 0.0) | (q0s == 1.0))
-    bad = np.flatnonzero(~(energy <= V0 + STATE_ATOL) & ~at_rest_on_wall)
+    bad = np.flatnonzero(~below & ~at_rest_on_wall)
     if bad.size:
         i = bad[0]
         wall = ("q = 1" if p0s[i] > 0 else "q = 0" if p0s[i] < 0
