@@ -11,7 +11,7 @@ import numpy as np
 __all__ = ["asked_columns", "in_asked_order", "sorted_times"]
 
 
-def sorted_times(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+def sorted_times(t: np.ndarray, n: int) -> tuple[np.ndarray | None, np.ndarray]:
     """Each row's times sorted.
 
     Args:
@@ -20,8 +20,16 @@ def sorted_times(t: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
 
     Returns:
         (asked_order, ts): the order that sorts each row (N, M) and the sorted times
-        (N, M); broadcast views of one row when ``t`` is shared.
+        (N, M); broadcast views of one row when ``t`` is shared, and ``asked_order``
+        None when the shared times were asked in increasing order (``ts`` then views
+        ``t``).
     """
+    if t.ndim == 1 and bool((t[1:] >= t[:-1]).all()):  # shared and already sorted
+        if n > 1:
+            return None, np.broadcast_to(t, (n, t.size))
+        ts = t[None]
+        ts.flags.writeable = False  # a view of the caller's times, as the broadcast is
+        return None, ts
     if t.ndim == 1:  # times shared by every row: sort once
         order = np.argsort(t, kind="stable")
         if n == 1:  # a view of one row is cheaper than a broadcast
@@ -53,22 +61,22 @@ def asked_columns(q: np.ndarray, p: np.ndarray, column: np.ndarray | None,
             np.take_along_axis(p, column[:, :m], 1))
 
 
-def in_asked_order(qa: np.ndarray, pa: np.ndarray, asked_order: np.ndarray,
+def in_asked_order(qa: np.ndarray, pa: np.ndarray, asked_order: np.ndarray | None,
                    ndim: int) -> tuple[np.ndarray, np.ndarray]:
     """The states at the sorted times put back in the asked order.
 
     Args:
         qa, pa: (N, M) the states at the sorted asked times.
-        asked_order: (N, M) the order of :func:`sorted_times`.
+        asked_order: (N, M) the order of :func:`sorted_times` (None: asked sorted).
         ndim: 1 when the times were shared by every row (one order for all), else 2.
 
     Returns:
         (q, p), each (N, M) in the asked order: ``qa`` and ``pa`` themselves when the
         shared times were asked in order, else new arrays.
     """
-    n, m = qa.shape
-    if ndim == 1 and np.all(asked_order[0, 1:] > asked_order[0, :-1]):
+    if asked_order is None:
         return qa, pa  # asked sorted: nothing to put back
+    n, m = qa.shape
     q_final, p_final = np.empty((n, m)), np.empty((n, m))
     if ndim == 1:
         q_final[:, asked_order[0]], p_final[:, asked_order[0]] = qa, pa

@@ -82,7 +82,7 @@ def level_grid(src, plan: HorizonPlan, ts, shared_times, method, coarse, kinked)
     periodic, column, work = plan.periodic, plan.column, plan.work
     # one grid for all rows: shared times, none answered from a period
     # (column None: no row answered from a period, work = asked times)
-    shared = shared_times and column is None and bool(np.all(coarse == coarse[0]))
+    shared = shared_times and column is None and (n == 1 or bool(np.all(coarse == coarse[0])))
     interval = (np.full(n, default_interval(ts[:1], periodic[:1])[0]) if shared
                 else default_interval(ts, periodic))
     # level 1: steps of RESOLVED_STEP (2^coarse × that at loose tols), `first` per

@@ -335,9 +335,11 @@ def _check_return(plan: HorizonPlan, with_t, levels, q0s, p0s, tols, batched):
     """Rows answered from one period must return to their start at T (their working
     column m); raise a :class:`PeriodError` for the first that misses by more than
     10 tol (V has a feature the turning-point search stepped over)."""
-    checked = np.flatnonzero(with_t)
     column = plan.column
-    if not checked.size or column is None:  # rows answered from a period have a column
+    if column is None:  # no row answered from a period (those have a column)
+        return
+    checked = np.flatnonzero(with_t)
+    if not checked.size:
         return
     m = column.shape[1] - 1
     pos = column[checked, m]

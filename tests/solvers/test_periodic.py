@@ -303,6 +303,28 @@ def test_far_scene_starts_from_the_spacing_on_0_2():
     np.testing.assert_allclose(got, [2 / 19, 2 / 19, nh.TIMES[1]], rtol=1e-15)
 
 
+def test_one_rows_interval_is_the_batchs():
+    """A single row (a single solve's scalar path) gets the interval it gets in a batch:
+    even grids from 0 (exact and off by just under and just over 1e-9 of a gap), grids
+    not from 0, uneven ones, one time, periodic or not."""
+    from nh_operators.solvers.periodic import default_interval
+
+    rows = [np.linspace(0, 2, 20), np.linspace(0, 1e6, 20), np.linspace(0.1, 2, 20),
+            np.r_[0.0, np.geomspace(1, 1e6, 19)]]
+    for eps in (0.9e-9, 1.1e-9):  # one gap longer by eps of the first gap
+        t = np.linspace(0, 2, 20)
+        t[5:] += eps * (t[1] - t[0])
+        rows.append(t)
+    ts = np.stack(rows)
+    for periodic in (np.zeros(len(rows), bool), np.ones(len(rows), bool)):
+        batch = default_interval(ts, periodic)
+        single = [default_interval(ts[i:i + 1], periodic[i:i + 1])[0] for i in range(len(rows))]
+        assert single == batch.tolist()
+    assert batch[-2] == 2 / 19 and batch[-1] == nh.TIMES[1]  # the 1e-9 edge, both sides
+    one = np.array([[0.5]])
+    assert default_interval(one, np.zeros(1, bool)).tolist() == [nh.TIMES[1]]
+
+
 @pytest.mark.parametrize("below", [1e-4, 1e-6])
 def test_energy_just_below_a_barrier_is_answered_from_its_period(below):
     """The 1/256 march of the turning-point search sampled both sides of the double well's
