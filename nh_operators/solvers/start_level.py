@@ -52,6 +52,8 @@ def start_coarseness(tol: float | np.ndarray) -> int | np.ndarray:
         >>> start_coarseness(1e-3), start_coarseness(1e-7), start_coarseness(1e-12)
         (3, 1, 0)
     """
+    if isinstance(tol, float):
+        return sum(tol >= start for start in START_TOLS)
     counts = (np.asarray(tol, dtype=np.float64)[..., None]
               >= np.asarray(START_TOLS, dtype=np.float64)).sum(-1)
     return int(counts) if counts.ndim == 0 else counts.astype(np.int64)
@@ -73,7 +75,11 @@ def start_levels(src, tols: np.ndarray, q0s: np.ndarray,
             whose force is held there (``src.guarded``).
     """
     tols = np.asarray(tols, dtype=np.float64)
-    coarse = np.asarray(start_coarseness(tols), dtype=np.int64).reshape(tols.shape)
+    if tols.size == 1:  # one row (a single solve): its count on a scalar, cheaper
+        coarse = np.full(tols.shape, start_coarseness(float(tols.reshape(-1)[0])),
+                         dtype=np.int64)
+    else:
+        coarse = np.asarray(start_coarseness(tols), dtype=np.int64).reshape(tols.shape)
     if not (src.guarded or coarse.any()):
         return coarse, np.zeros(tols.shape, dtype=bool)
     flags = row_flags(src, q0s, p0s)

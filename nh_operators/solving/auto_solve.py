@@ -164,6 +164,8 @@ def solve(potential: Any, t: Any, *, tol: float | None = None, method: Any = "au
 
 def _rest_at_zero(q0, p0):
     """Whether (q0, p0) is the networks' state (0, 0) (scalars only)."""
+    if type(q0) is float and type(p0) is float:  # the usual case, without numpy
+        return q0 == 0.0 and p0 == 0.0
     return np.ndim(q0) == 0 and np.ndim(p0) == 0 and float(q0) == 0.0 and float(p0) == 0.0
 
 
