@@ -122,3 +122,32 @@ def single_threaded():
                 torch.set_num_threads(n_torch)
         if n_numba != 1:
             numba.set_num_threads(n_numba)
+
+
+@contextlib.contextmanager
+def torch_threads(n: "int | None"):
+    """Run torch on ``n`` intra-op threads inside the block, restored afterwards (numba's
+    count is left alone); ``None`` or a count already at ``n`` changes nothing.
+
+    Not thread-safe, for the reason :func:`single_threaded` gives: torch's count is
+    process-wide.
+
+    Example:
+        >>> import torch
+        >>> before = torch.get_num_threads()
+        >>> with torch_threads(1):
+        ...     inside = torch.get_num_threads()
+        >>> inside, torch.get_num_threads() == before
+        (1, True)
+    """
+    import torch
+
+    before = torch.get_num_threads()
+    change = n is not None and n != before
+    if change:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if change:
+            torch.set_num_threads(before)

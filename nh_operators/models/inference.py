@@ -6,6 +6,7 @@ import numpy as np
 import torch
 from numpy.typing import ArrayLike
 
+from .._backend import torch_threads
 from .._constants import TIMES
 from .._sensors import sensor_values
 
@@ -18,7 +19,9 @@ def batched_forward(net, V, t, batch_size):
     The one place that runs a network over many potentials: inputs are moved to the
     network's device and dtype, ``net.eval()`` holds for the pass and the previous
     mode is restored afterwards, and everything runs under ``torch.no_grad()``. A NumPy
-    batch reaches the network as a tensor of its own (converted, or else copied).
+    batch reaches the network as a tensor of its own (converted, or else copied). On the
+    CPU, a network with a ``cpu_torch_threads`` count (a light
+    :class:`~.phaseonet.PhaseONet`) runs torch on that many threads for the pass.
 
     Args:
         net: a network taking ``(V, t)``.
@@ -30,6 +33,9 @@ def batched_forward(net, V, t, batch_size):
         (start index, output tensor of the batch V[start:start + batch_size]).
     """
     param = next(net.parameters())
+    # a network whose torch work per row is light says so: on the CPU its pass then runs
+    # torch on that many threads (numba's, which its compiled parts use, stay as set)
+    threads = getattr(net, "cpu_torch_threads", None) if param.device.type == "cpu" else None
     if isinstance(t, np.ndarray) and not t.flags.writeable:
         t = t.copy()  # torch warns on read-only arrays (nh.TIMES is one)
     t = torch.as_tensor(t, dtype=param.dtype, device=param.device)
@@ -40,7 +46,7 @@ def batched_forward(net, V, t, batch_size):
     if switch:
         net.eval()
     try:
-        with torch.no_grad():
+        with torch.no_grad(), torch_threads(threads):
             for start in range(0, len(V), batch_size):
                 rows = V[start:start + batch_size]
                 v = torch.as_tensor(rows, dtype=param.dtype, device=param.device)
