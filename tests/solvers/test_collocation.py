@@ -35,6 +35,25 @@ def test_harmonic_oscillator_is_exact_from_any_guess(q0, p0):
     assert collocation_residual(sol.q, sol.p, 2.0, sho_force) < 1e-20
 
 
+def test_a_step_tolerance_below_rounding_stops_at_the_rounding_floor():
+    """Newton's steps cannot shrink below rounding: asked for steps below 1e-20, it
+    stops, converged, once a step under eps · N² no longer halves (before, it ran all
+    its steps and said it had not converged), and the answer is as exact as before."""
+    t = np.linspace(0, 2, 37)
+    exact_q = 0.5 - 0.5 * np.cos(4 * t)
+    well = nh.PHYSICAL_POTENTIALS["double_well"]
+    near = np.asarray(reference_solve(well, chebyshev_points(512, 2.0))[0]).reshape(-1)
+    for force, stiffness, guess in [(sho_force, sho_stiffness, np.full(257, 0.5)),
+                                    (well.dV, difference_stiffness(well.dV), near)]:
+        loose = newton_collocation(force, stiffness, guess, 2.0)
+        tight = newton_collocation(force, stiffness, guess, 2.0, step_tol=1e-20)
+        assert tight.converged and tight.steps < 30
+        assert tight.steps >= loose.steps
+        np.testing.assert_allclose(tight.q, loose.q, rtol=0, atol=1e-10)
+        if force is sho_force:
+            np.testing.assert_allclose(tight(t)[0], exact_q, atol=1e-10)
+
+
 def test_points_and_interpolation_at_the_points():
     t = chebyshev_points(8, 2.0)
     assert t[0] == 0.0 and t[-1] == 2.0 and np.all(np.diff(t) > 0)
