@@ -28,6 +28,11 @@ trains for the same wall-clock budget (``--minutes``) on the same small
   residual in integral (Picard) form, q − q0 − ∫p and p − p0 − ∫F(q) by the trapezoid
   rule (``physics={"form": "integral"}``): alone, with the energy term, and beside the
   same 10 % of the labels (weight 1 each). No derivative of the network is taken.
+* ``window`` (only when asked for): time-marching. A DeepONet that reads a starting state
+  learns, from the residual and energy terms on [0, ``--window``] only, the flow over one
+  short window, on ``paper-states-standard`` potentials from random states; its
+  trajectory on [0, 2] is the windows composed, each from the last one's end
+  (``windows.py`` beside this script; no residual column, the windows' joints have none).
 
 Every run keeps its checkpoint in ``--out/runs/MODEL-MODE-sSEED``: an interrupted
 benchmark resumes (``nh.train(..., resume=True, max_minutes=...)``) and finished runs
@@ -55,7 +60,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -67,19 +74,27 @@ from nh_operators.data import SensorSpline, load_dataset, preset_kwargs, time_de
 from nh_operators.models import batched_forward, cast_network
 from nh_operators.training import load_checkpoint, load_model, save_checkpoint
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from windows import scores as window_scores  # noqa: E402  (a sibling script)
+from windows import window_physics  # noqa: E402
+
 MODES = ("data", "physics", "energy", "hybrid", "finetune", "causal", "curriculum",
          "causal-curriculum", "labels-10", "hybrid-light", "integral", "integral-energy",
-         "hybrid-integral")
+         "hybrid-integral", "window")
 ARCH = {"deeponet": {}, "traonet": {"query_coupled": False},
         "mambonet": {"query_coupled": False}, "varonet": {"query_coupled": False}}
 
 
-def datasets(folder: Path, train_size: int, test_size: int) -> dict[str, Path]:
-    """Generate (once) the training set and the two test sets; their paths."""
+def datasets(folder: Path, train_size: int, test_size: int,
+             states: bool = False) -> dict[str, Path]:
+    """Generate (once) the training set and the two test sets (with ``states``, also a
+    training set from random states); their paths."""
     folder.mkdir(parents=True, exist_ok=True)
     plan = {"train": (train_size, 8407, preset_kwargs("paper-standard")),
             "paper-test": (test_size, 42, preset_kwargs("paper-test")),
             "alg1-test": (test_size, 42, preset_kwargs("alg1-test"))}
+    if states:
+        plan["train-states"] = (train_size, 8407, preset_kwargs("paper-states-standard"))
     paths = {}
     for name, (size, seed, kwargs) in plan.items():
         paths[name] = folder / f"{name}-{size}.h5"
@@ -103,12 +118,14 @@ def physics_of(mode: str, args: argparse.Namespace) -> dict | None:
             # the residual in integral (Picard) form: no time derivative of the network
             "integral": {"form": "integral"},
             "integral-energy": {"form": "integral", **energy},
-            "hybrid-integral": {"form": "integral", "label_fraction": 0.1}}[mode]
+            "hybrid-integral": {"form": "integral", "label_fraction": 0.1},
+            "window": window_physics(args.window, args.energy)}[mode]
 
 
 def config(model: str, mode: str, seed: int, args: argparse.Namespace,
            physics: dict | None) -> nh.TrainConfig:
-    return nh.TrainConfig(model, preset="cpu", arch=dict(ARCH[model]), epochs=args.epochs,
+    arch = {**ARCH[model], **({"initial_state": True} if mode == "window" else {})}
+    return nh.TrainConfig(model, preset="cpu", arch=arch, epochs=args.epochs,
                           seed=seed, batch_size=args.batch_size, scheduler="constant",
                           lr=args.lr,
                           device=args.device, physics=physics)
@@ -172,14 +189,16 @@ def one(model: str, mode: str, seed: int, paths: dict[str, Path],
     if cached.exists():
         return json.loads(cached.read_text())
     start = time.perf_counter()
-    train_run(model, mode, seed, paths["train"], run, args)
+    train_run(model, mode, seed, paths["train-states" if mode == "window" else "train"],
+              run, args)
     net, _ = load_model(run)
     history = (run / "history.csv").read_text().strip().splitlines()
     last = dict(zip(history[0].split(","), history[-1].split(","), strict=True))
     result = {"model": model, "mode": mode, "seed": seed, "epochs": int(last["epoch"]),
               "minutes": float(last["seconds"]) / 60, "wall": time.perf_counter() - start}
     for name in ("paper-test", "alg1-test"):
-        result[name] = score(net, paths[name])
+        result[name] = (window_scores(net, str(paths[name]), args.window)
+                        if mode == "window" else score(net, paths[name]))
     cached.write_text(json.dumps(result, indent=1))
     return result
 
@@ -189,7 +208,10 @@ def table(results: list[dict], args: argparse.Namespace) -> str:
               f"{args.minutes / 2:g}), {args.threads} thread(s), {args.device}, seeds "
               f"{' '.join(map(str, args.seeds))}, train {args.train_size} paper-standard "
               f"potentials (80 % train), tests: first {args.test_size} of paper-test and "
-              f"alg1-test; constant lr {args.lr:g}; values are means over seeds"), "",
+              f"alg1-test; constant lr {args.lr:g}; values are means over seeds"
+              + (f"; window: {args.train_size} paper-states-standard potentials from "
+                 f"random states, window {args.window:g}" if "window" in args.modes
+                 else "")), "",
              ("| model | mode | epochs (per seed) | paper-test mean L_tot | median | "
               "alg1-test mean L_tot | median | energy drift (paper) | residual (paper) |"),
              "|---|---|---|---|---|---|---|---|---|"]
@@ -233,11 +255,14 @@ def main(argv: list[str] | None = None) -> None:
                         help="weight of the energy term in every residual mode but physics")
     parser.add_argument("--curriculum", type=int, default=20_000,
                         help="iterations of the curriculum modes' widening horizon")
+    parser.add_argument("--window", type=float, default=0.25,
+                        help="the window mode's window (its trajectory: 2 / window of them)")
     parser.add_argument("--device", default="cpu", help="cpu (default) or cuda")
     parser.add_argument("--threads", type=int, default=1)
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
-    paths = datasets(args.out / "data", args.train_size, args.test_size)
+    paths = datasets(args.out / "data", args.train_size, args.test_size,
+                     states="window" in args.modes)
     results = []
     for seed in args.seeds:
         for model in args.models:
