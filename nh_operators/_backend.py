@@ -143,11 +143,11 @@ def torch_threads(n: "int | None"):
     import torch
 
     before = torch.get_num_threads()
-    change = n is not None and n != before
-    if change:
-        torch.set_num_threads(n)
+    if n is None or n == before:
+        yield
+        return
+    torch.set_num_threads(n)
     try:
         yield
     finally:
-        if change:
-            torch.set_num_threads(before)
+        torch.set_num_threads(before)
