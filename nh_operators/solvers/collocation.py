@@ -156,7 +156,7 @@ def newton_collocation(dV: Force, d2V: Force, q_guess: np.ndarray, t_end: float,
         t_end: T, the end of the horizon.
         q0, p0: the starting state.
         max_steps: Newton steps at most.
-        step_tol: stop when the largest step is below this (relative to max(1, |q|)).
+        step_tol: stop when the largest step is below this (relative to max(1, max abs(q))).
             Also stop, converged, at the rounding floor: when a step below
             eps · N² (relative) is no smaller than half the one before, Newton's
             quadratic convergence has ended in rounding (on the SMFF at N = 512 the
