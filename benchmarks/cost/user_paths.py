@@ -195,7 +195,9 @@ def main():
     parser.add_argument("--loop-cap", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--networks", nargs="*", default=list(NETWORKS))
+    parser.add_argument("--networks", nargs="*", default=list(NETWORKS),
+                        help="shipped networks to time (default: %(default)s); the flag "
+                        "alone times none, only the kernels beside them")
     parser.add_argument("--kinds", nargs="+", default=["sensors", "bspline", "formula"],
                         choices=["sensors", "bspline", "formula"],
                         help="the input kinds of the classical table")
