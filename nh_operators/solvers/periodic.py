@@ -260,19 +260,24 @@ def default_interval(ts, periodic):
     substep levels are the ones a solve on [0, 2] goes through.
     """
     n, m = ts.shape
-    if n == 1 and m >= 2:  # one row (a single solve): the same test on scalars, cheaper
+    if n == 1 and m >= 2:  # one row (a single solve): the same rule on scalars, cheaper
         gaps = ts[0, 1:] - ts[0, :-1]
         g0 = float(gaps[0])
-        tol = 1e-9 * g0
-        even = (ts[0, 0] == 0.0 and g0 > 0 and float(gaps.max()) - g0 <= tol
-                and g0 - float(gaps.min()) <= tol)
-        return np.array([(TIMES[-1] / (m - 1) if periodic[0] else g0) if even
-                         else TIMES[1] - TIMES[0]])
+        if _even_grid(float(ts[0, 0]), g0, float(gaps.max()), float(gaps.min())):
+            return np.array([TIMES[-1] / (m - 1) if periodic[0] else g0])
+        return np.array([TIMES[1] - TIMES[0]])
     interval = np.full(n, TIMES[1] - TIMES[0])
     if m >= 2:
         gaps = np.diff(ts, axis=1)
         g0 = gaps[:, 0]
-        even = (ts[:, 0] == 0.0) & (g0 > 0) & (np.abs(gaps - g0[:, None]).max(axis=1)
-                                               <= 1e-9 * g0)
+        even = _even_grid(ts[:, 0], g0, gaps.max(axis=1), gaps.min(axis=1))
         interval[even] = np.where(periodic[even], TIMES[-1] / (m - 1), g0[even])
     return interval
+
+
+def _even_grid(first, g0, longest, shortest):
+    """Whether times from ``first`` with first gap ``g0`` and gaps between ``shortest``
+    and ``longest`` are an even grid from 0 (every gap within 1e-9 · g0 of g0); scalars,
+    or (N,) arrays of rows."""
+    tol = 1e-9 * g0
+    return (first == 0.0) & (g0 > 0) & (longest - g0 <= tol) & (g0 - shortest <= tol)
