@@ -32,6 +32,13 @@ def window_physics(window: float, energy: float) -> dict:
     return {"energy": energy, "t_max": window, "curriculum": 1, "extra_times": 64}
 
 
+def window_of(t: np.ndarray, window: float) -> tuple[int, np.ndarray]:
+    """The number of windows over [0, max t] and the window of each time: a time on a
+    boundary belongs to the window it starts, but the last time to the last window."""
+    count = max(1, int(np.ceil(t[-1] / window - 1e-12)))
+    return count, np.minimum((t / window).astype(int), count - 1)
+
+
 def composed(net: torch.nn.Module, V: np.ndarray, t: np.ndarray,
              window: float) -> tuple[np.ndarray, np.ndarray]:
     """(q, p), each (N, M) float64: the trajectory from rest at the sorted times ``t``,
@@ -45,8 +52,7 @@ def composed(net: torch.nn.Module, V: np.ndarray, t: np.ndarray,
     Vt = torch.as_tensor(V, dtype=torch.float64)
     n = Vt.shape[0]
     q0 = p0 = torch.zeros(n, 1, dtype=torch.float64)
-    count = max(1, int(np.ceil(t[-1] / window - 1e-12)))
-    which = np.minimum((t / window).astype(int), count - 1)
+    count, which = window_of(t, window)
     q, p = np.empty((n, t.size)), np.empty((n, t.size))
     with torch.no_grad():
         for k in range(count):
@@ -76,8 +82,7 @@ def one_window_medians(net: torch.nn.Module, data, window: float) -> list[float]
     """Per window, the median L_tot of that window alone, started from the labels' state
     at its first asked time: how good one window is, before any composing."""
     t = data.t
-    count = max(1, int(np.ceil(t[-1] / window - 1e-12)))
-    which = np.minimum((t / window).astype(int), count - 1)
+    count, which = window_of(t, window)
     Vt = torch.as_tensor(data.V, dtype=torch.float64)
     out = []
     with torch.no_grad():
