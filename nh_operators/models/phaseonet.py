@@ -28,10 +28,11 @@ Tensor = torch.Tensor
 
 #: Torch multiply-adds per row below which a PhaseONet's CPU inference runs torch on one
 #: thread (:attr:`PhaseONet.cpu_torch_threads`). At batch 1,000 on a 2-core CPU with
-#: numba on two threads, µs per trajectory, torch on one thread against two: width 16,
-#: depth 1, basis 4, grid 128 (the shipped quadrature networks, 2.8k) 1.56 against 2.24;
-#: width 128, depth 2, basis 32, grid 256 (54k) 3.20 against 3.47; width 256, depth 3
-#: (190k) 5.99 against 5.02 (torch's threads pay only there).
+#: numba on two threads, µs per trajectory, torch on one thread against two
+#: (``benchmarks/cost/torch_threads.py``): width 16, depth 1, basis 4, grid 128 (the
+#: shipped quadrature networks, 2.8k) 1.74 against 2.48; width 128, depth 2, basis 32,
+#: grid 256 (54k) 4.64 against 4.85; width 256, depth 3 (190k) 7.19 against 6.74
+#: (torch's threads pay only there).
 LIGHT_TORCH_MACS = 100_000
 
 
